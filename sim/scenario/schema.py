@@ -1,0 +1,619 @@
+"""Scenario files: TOML validated once into frozen dataclasses.
+
+A scenario names the world (seabed, water, objects), one or more vehicles (each with its
+start pose, mission, sonars, navigation sensors, front end and SLAM estimator), the
+duration and the outputs. ``parse_scenario(dict)`` validates a decoded TOML table; every
+mistake raises :class:`ScenarioError` (a ``ValueError``) whose message names the field
+path (``vehicles[0].sonars[1].preset``), the bad value and what is allowed. Unknown keys
+are rejected, so a typo never silently falls back to a default.
+
+Units: metres, seconds, degrees only where the key says ``_deg``; world frame x east,
+y north, z up (depth = -z). Annotated example: ``assets/scenarios/shipwreck-survey.toml``.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+# --- names other parts of undersea accept (CONTRACTS.md / issues 2-5) -------------------
+VEHICLE_KINDS = ("alister9", "ixn", "naiad", "saga", "rexrov")
+SONAR_PRESETS = ("deepeye340d", "deepeye680d", "klein3500", "blueview_p900_90", "msis")
+SIDESCAN_PRESETS = ("deepeye340d", "deepeye680d", "klein3500")
+SEABED_KINDS = ("flat", "ripples", "slope", "rocks", "grid")
+OBJECT_CLASSES = ("shipwreck", "rock", "branch", "mannequin", "pipe", "tyre", "sensor_node")
+MISSION_TYPES = ("lawnmower", "loop", "line", "waypoints", "hold")
+FRONTEND_METHODS = ("improved_otsu", "otsu", "adaptive", "iterative", "max_entropy", "none")
+FRONTEND_PRESETS = ("auto", "sss_high", "sss_low", "fls")
+ESTIMATORS = ("aekf", "fastslam2", "isam2", "none")
+NAV_SENSORS = ("imu", "dvl", "pressure", "compass", "gps")
+NAV_PRESETS = ("default", "ideal", "low_cost")
+TIMING_MODES = ("clone", "delayed")
+
+
+class ScenarioError(ValueError):
+    """A scenario value is wrong; the message names field, value and what is allowed."""
+
+
+def _fail(path: str, value: Any, allowed: str) -> ScenarioError:
+    return ScenarioError(f"scenario field '{path}': got {value!r}; allowed: {allowed}")
+
+
+# ------------------------------------------------------------------ dataclasses ----------
+@dataclass(frozen=True)
+class ObjectSpec:
+    """One seabed object. position (3,) m world frame; z is height above the seabed there."""
+
+    cls: str
+    position: tuple[float, float, float]
+    yaw_deg: float = 0.0
+    scale: float = 1.0
+    name: str = ""
+
+
+@dataclass(frozen=True)
+class WaterSpec:
+    temperature_c: float = 10.0
+    salinity_psu: float = 35.0
+    current_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    current_variability: float = 0.0
+
+
+@dataclass(frozen=True)
+class WorldSpecConfig:
+    """Seabed kind over a size_m[0] x size_m[1] square centred on the origin, at depth_m."""
+
+    seabed: str = "flat"
+    size_m: tuple[float, float] = (200.0, 200.0)
+    depth_m: float = 30.0
+    seed: int | None = None
+    grid_path: str = ""
+    water: WaterSpec = field(default_factory=WaterSpec)
+    objects: tuple[ObjectSpec, ...] = ()
+
+
+@dataclass(frozen=True)
+class MissionSpec:
+    """Mission: lawnmower (area centre/size, heading, line spacing), loop/waypoints/line
+    (explicit waypoints), hold (station keeping). Altitude (m above seabed) or depth (m)."""
+
+    type: str = "lawnmower"
+    speed_mps: float = 1.5
+    altitude_m: float | None = 8.0
+    depth_m: float | None = None
+    center: tuple[float, float] = (0.0, 0.0)
+    size_m: tuple[float, float] = (100.0, 60.0)
+    heading_deg: float = 0.0
+    line_spacing_m: float | None = None
+    waypoints: tuple[tuple[float, float], ...] = ()
+    loops: int = 1
+
+
+@dataclass(frozen=True)
+class SonarSpec:
+    preset: str
+    name: str
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def is_sidescan(self) -> bool:
+        return self.preset in SIDESCAN_PRESETS
+
+
+@dataclass(frozen=True)
+class NavSpec:
+    preset: str = "default"
+    overrides: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class FrontendSpec:
+    method: str = "improved_otsu"
+    preset: str = "auto"
+    window_pings: int = 200
+    hop_pings: int = 100
+    min_area_m2: float = 0.3
+
+
+@dataclass(frozen=True)
+class SlamSpec:
+    """estimator: name for slam.estimators.make_estimator; params passed through.
+    timing: 'clone' ties a delayed side-scan observation to the pose at its ping (see
+    sim.runner); 'delayed' applies it at detection time (for comparison)."""
+
+    estimator: str = "aekf"
+    params: Mapping[str, Any] = field(default_factory=dict)
+    timing: str = "clone"
+    association_gate_m: float = 3.0
+
+
+@dataclass(frozen=True)
+class VehicleSpec:
+    name: str
+    kind: str
+    start_position: tuple[float, float, float]
+    start_yaw_deg: float
+    mission: MissionSpec
+    sonars: tuple[SonarSpec, ...]
+    nav: NavSpec
+    frontend: FrontendSpec
+    slam: SlamSpec
+
+
+@dataclass(frozen=True)
+class OutputSpec:
+    recording: bool = True
+    figures: bool = True
+    log_sonar_every: int = 1
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    description: str
+    seed: int
+    duration_s: float
+    control_dt: float
+    world: WorldSpecConfig
+    vehicles: tuple[VehicleSpec, ...]
+    outputs: OutputSpec
+
+    def with_overrides(self, seed: int | None = None, duration_s: float | None = None) -> Scenario:
+        s = self
+        if seed is not None:
+            s = replace(s, seed=_int(seed, "seed", lo=0))
+        if duration_s is not None:
+            s = replace(s, duration_s=_num(duration_s, "duration_s", lo=0.0, lo_open=True))
+        return s
+
+    @property
+    def world_seed(self) -> int:
+        return self.seed if self.world.seed is None else self.world.seed
+
+
+# ------------------------------------------------------------------ validators -----------
+_TYPE_NAMES = {bool: "a boolean", int: "an integer", float: "a number", str: "a string"}
+
+
+def _num(v, path, lo=None, hi=None, lo_open=False) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise _fail(path, v, "a number")
+    v = float(v)
+    if not math.isfinite(v):
+        raise _fail(path, v, "a finite number")
+    if lo is not None and (v < lo or (lo_open and v == lo)):
+        raise _fail(
+            path,
+            v,
+            f"a number {'>' if lo_open else '>='} {lo:g}"
+            + (f" and <= {hi:g}" if hi is not None else ""),
+        )
+    if hi is not None and v > hi:
+        raise _fail(path, v, f"a number <= {hi:g}" + (f" and >= {lo:g}" if lo is not None else ""))
+    return v
+
+
+def _int(v, path, lo=None, hi=None) -> int:
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise _fail(path, v, "an integer")
+    if lo is not None and v < lo:
+        raise _fail(path, v, f"an integer >= {lo}")
+    if hi is not None and v > hi:
+        raise _fail(path, v, f"an integer <= {hi}")
+    return int(v)
+
+
+def _str(v, path, choices=None) -> str:
+    if not isinstance(v, str):
+        raise _fail(path, v, "one of " + ", ".join(choices) if choices else "a string")
+    if choices is not None and v not in choices:
+        raise _fail(path, v, ", ".join(choices))
+    return v
+
+
+def _bool(v, path) -> bool:
+    if not isinstance(v, bool):
+        raise _fail(path, v, "true or false")
+    return v
+
+
+def _vec(v, path, n, lo=None, hi=None, lo_open=False) -> tuple[float, ...]:
+    if not isinstance(v, list | tuple) or len(v) != n:
+        raise _fail(path, v, f"a list of {n} numbers")
+    return tuple(_num(x, f"{path}[{i}]", lo, hi, lo_open) for i, x in enumerate(v))
+
+
+def _table(v, path) -> dict:
+    if not isinstance(v, Mapping):
+        raise _fail(path, v, "a table")
+    return dict(v)
+
+
+def _check_keys(d: Mapping, path: str, allowed: tuple[str, ...]) -> None:
+    for k in d:
+        if k not in allowed:
+            where = f"{path}.{k}" if path else k
+            raise ScenarioError(
+                f"scenario field '{where}': unknown key {k!r}; allowed keys here: {', '.join(allowed)}"
+            )
+
+
+def _scalar_overrides(v, path) -> dict[str, Any]:
+    d = _table(v, path)
+    for k, x in d.items():
+        if isinstance(x, Mapping):
+            raise _fail(f"{path}.{k}", x, "a number, string, boolean or list of numbers")
+        if isinstance(x, float) and not math.isfinite(x):
+            raise _fail(f"{path}.{k}", x, "a finite number")
+    return d
+
+
+# ------------------------------------------------------------------ sections -------------
+def _parse_object(d, path) -> ObjectSpec:
+    d = _table(d, path)
+    _check_keys(d, path, ("class", "position", "yaw_deg", "scale", "name"))
+    if "class" not in d:
+        raise _fail(f"{path}.class", None, ", ".join(OBJECT_CLASSES))
+    cls = _str(d["class"], f"{path}.class", OBJECT_CLASSES)
+    if "position" not in d:
+        raise _fail(
+            f"{path}.position", None, "a list of 2 or 3 numbers [x, y(, z above seabed)] in m"
+        )
+    p = d["position"]
+    if not isinstance(p, list | tuple) or len(p) not in (2, 3):
+        raise _fail(f"{path}.position", p, "a list of 2 or 3 numbers [x, y(, z above seabed)] in m")
+    pos = tuple(_num(x, f"{path}.position[{i}]") for i, x in enumerate(p))
+    if len(pos) == 2:
+        pos = (*pos, 0.0)
+    return ObjectSpec(
+        cls=cls,
+        position=pos,  # type: ignore[arg-type]
+        yaw_deg=_num(d.get("yaw_deg", 0.0), f"{path}.yaw_deg", -360, 360),
+        scale=_num(d.get("scale", 1.0), f"{path}.scale", 0.0, 100.0, lo_open=True),
+        name=_str(d.get("name", ""), f"{path}.name"),
+    )
+
+
+def _parse_world(d, path="world") -> WorldSpecConfig:
+    d = _table(d, path)
+    _check_keys(d, path, ("seabed", "size_m", "depth_m", "seed", "grid_path", "water", "objects"))
+    w = _table(d.get("water", {}), f"{path}.water")
+    _check_keys(
+        w, f"{path}.water", ("temperature_c", "salinity_psu", "current_mps", "current_variability")
+    )
+    water = WaterSpec(
+        temperature_c=_num(w.get("temperature_c", 10.0), f"{path}.water.temperature_c", -2.0, 40.0),
+        salinity_psu=_num(w.get("salinity_psu", 35.0), f"{path}.water.salinity_psu", 0.0, 45.0),
+        current_mps=_vec(
+            w.get("current_mps", [0.0, 0.0, 0.0]), f"{path}.water.current_mps", 3, -3.0, 3.0
+        ),  # type: ignore[arg-type]
+        current_variability=_num(
+            w.get("current_variability", 0.0), f"{path}.water.current_variability", 0.0, 1.0
+        ),
+    )
+    seabed = _str(d.get("seabed", "flat"), f"{path}.seabed", SEABED_KINDS)
+    grid_path = _str(d.get("grid_path", ""), f"{path}.grid_path")
+    if seabed == "grid" and not grid_path:
+        raise _fail(
+            f"{path}.grid_path", grid_path, "path to a .npy depth grid when seabed = 'grid'"
+        )
+    objs = d.get("objects", [])
+    if not isinstance(objs, list):
+        raise _fail(f"{path}.objects", objs, "an array of tables ([[world.objects]])")
+    objects = tuple(_parse_object(o, f"{path}.objects[{i}]") for i, o in enumerate(objs))
+    size = _vec(d.get("size_m", [200.0, 200.0]), f"{path}.size_m", 2, 1.0, 20000.0)
+    for i, o in enumerate(objects):
+        for ax in range(2):
+            if abs(o.position[ax]) > size[ax] / 2:
+                raise _fail(
+                    f"{path}.objects[{i}].position[{ax}]",
+                    o.position[ax],
+                    f"inside the seabed, |value| <= {size[ax] / 2:g} m (world.size_m / 2)",
+                )
+    seed = d.get("seed")
+    return WorldSpecConfig(
+        seabed=seabed,
+        size_m=size,  # type: ignore[arg-type]
+        depth_m=_num(d.get("depth_m", 30.0), f"{path}.depth_m", 1.0, 11000.0),
+        seed=None if seed is None else _int(seed, f"{path}.seed", lo=0),
+        grid_path=grid_path,
+        water=water,
+        objects=objects,
+    )
+
+
+def _parse_mission(d, path) -> MissionSpec:
+    d = _table(d, path)
+    _check_keys(
+        d,
+        path,
+        (
+            "type",
+            "speed_mps",
+            "altitude_m",
+            "depth_m",
+            "center",
+            "size_m",
+            "heading_deg",
+            "line_spacing_m",
+            "waypoints",
+            "loops",
+        ),
+    )
+    typ = _str(d.get("type", "lawnmower"), f"{path}.type", MISSION_TYPES)
+    wps = d.get("waypoints", [])
+    if not isinstance(wps, list):
+        raise _fail(f"{path}.waypoints", wps, "a list of [x, y] pairs in m")
+    waypoints = tuple(_vec(p, f"{path}.waypoints[{i}]", 2) for i, p in enumerate(wps))
+    if typ in ("loop", "waypoints", "line") and len(waypoints) < 2:
+        raise _fail(f"{path}.waypoints", wps, f"at least 2 [x, y] waypoints for type = '{typ}'")
+    alt = d.get("altitude_m", None if "depth_m" in d else 8.0)
+    dep = d.get("depth_m")
+    if alt is not None and dep is not None:
+        raise ScenarioError(
+            f"scenario field '{path}': both altitude_m and depth_m given; allowed: exactly one of them"
+        )
+    ls = d.get("line_spacing_m")
+    return MissionSpec(
+        type=typ,
+        speed_mps=_num(d.get("speed_mps", 1.5), f"{path}.speed_mps", 0.0, 5.0, lo_open=True),
+        altitude_m=None if alt is None else _num(alt, f"{path}.altitude_m", 0.5, 200.0),
+        depth_m=None if dep is None else _num(dep, f"{path}.depth_m", 0.0, 11000.0),
+        center=_vec(d.get("center", [0.0, 0.0]), f"{path}.center", 2),  # type: ignore[arg-type]
+        size_m=_vec(
+            d.get("size_m", [100.0, 60.0]), f"{path}.size_m", 2, 0.0, 20000.0, lo_open=True
+        ),  # type: ignore[arg-type]
+        heading_deg=_num(d.get("heading_deg", 0.0), f"{path}.heading_deg", -360.0, 360.0),
+        line_spacing_m=None
+        if ls is None
+        else _num(ls, f"{path}.line_spacing_m", 0.0, 1000.0, lo_open=True),
+        waypoints=waypoints,  # type: ignore[arg-type]
+        loops=_int(d.get("loops", 1), f"{path}.loops", lo=1, hi=1000),
+    )
+
+
+def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:
+    d = _table(d, path)
+    _check_keys(d, path, ("method", "preset", "window_pings", "hop_pings", "min_area_m2"))
+    fe = FrontendSpec(
+        method=_str(d.get("method", base.method), f"{path}.method", FRONTEND_METHODS),
+        preset=_str(d.get("preset", base.preset), f"{path}.preset", FRONTEND_PRESETS),
+        window_pings=_int(
+            d.get("window_pings", base.window_pings), f"{path}.window_pings", 8, 10000
+        ),
+        hop_pings=_int(d.get("hop_pings", base.hop_pings), f"{path}.hop_pings", 1, 10000),
+        min_area_m2=_num(d.get("min_area_m2", base.min_area_m2), f"{path}.min_area_m2", 0.0),
+    )
+    if fe.hop_pings > fe.window_pings:
+        raise _fail(
+            f"{path}.hop_pings", fe.hop_pings, f"an integer <= window_pings ({fe.window_pings})"
+        )
+    return fe
+
+
+def _parse_slam(d, path, base: SlamSpec) -> SlamSpec:
+    d = _table(d, path)
+    _check_keys(d, path, ("estimator", "params", "timing", "association_gate_m"))
+    params = dict(base.params)
+    params.update(_scalar_overrides(d.get("params", {}), f"{path}.params"))
+    return SlamSpec(
+        estimator=_str(d.get("estimator", base.estimator), f"{path}.estimator", ESTIMATORS),
+        params=params,
+        timing=_str(d.get("timing", base.timing), f"{path}.timing", TIMING_MODES),
+        association_gate_m=_num(
+            d.get("association_gate_m", base.association_gate_m),
+            f"{path}.association_gate_m",
+            0.0,
+            100.0,
+            lo_open=True,
+        ),
+    )
+
+
+def _parse_sonar(d, path) -> SonarSpec:
+    d = _table(d, path)
+    _check_keys(d, path, ("preset", "name", "overrides"))
+    if "preset" not in d:
+        raise _fail(f"{path}.preset", None, ", ".join(SONAR_PRESETS))
+    preset = _str(d["preset"], f"{path}.preset", SONAR_PRESETS)
+    name = _str(d.get("name", "sss" if preset in SIDESCAN_PRESETS else preset), f"{path}.name")
+    if not name.isidentifier():
+        raise _fail(f"{path}.name", name, "an identifier (letters, digits, underscore)")
+    return SonarSpec(
+        preset=preset,
+        name=name,
+        overrides=_scalar_overrides(d.get("overrides", {}), f"{path}.overrides"),
+    )
+
+
+def _parse_nav(d, path) -> NavSpec:
+    d = _table(d, path)
+    _check_keys(d, path, ("preset", *NAV_SENSORS))
+    ov = {k: _scalar_overrides(d[k], f"{path}.{k}") for k in NAV_SENSORS if k in d}
+    return NavSpec(
+        preset=_str(d.get("preset", "default"), f"{path}.preset", NAV_PRESETS), overrides=ov
+    )
+
+
+def _parse_vehicle(
+    d, path, fe_base: FrontendSpec, slam_base: SlamSpec, world: WorldSpecConfig
+) -> VehicleSpec:
+    d = _table(d, path)
+    _check_keys(d, path, ("kind", "name", "start", "mission", "sonars", "nav", "frontend", "slam"))
+    if "kind" not in d:
+        raise _fail(f"{path}.kind", None, ", ".join(VEHICLE_KINDS))
+    kind = _str(d["kind"], f"{path}.kind", VEHICLE_KINDS)
+    name = _str(d.get("name", kind), f"{path}.name")
+    if not name.isidentifier():
+        raise _fail(f"{path}.name", name, "an identifier (letters, digits, underscore)")
+    start = _table(d.get("start", {}), f"{path}.start")
+    _check_keys(start, f"{path}.start", ("position", "yaw_deg"))
+    pos = _vec(start.get("position", [0.0, 0.0, -5.0]), f"{path}.start.position", 3)
+    for ax in range(2):
+        if abs(pos[ax]) > world.size_m[ax] / 2:
+            raise _fail(
+                f"{path}.start.position[{ax}]",
+                pos[ax],
+                f"|value| <= {world.size_m[ax] / 2:g} m (world.size_m / 2)",
+            )
+    if not -world.depth_m < pos[2] <= 0.0:
+        raise _fail(
+            f"{path}.start.position[2]",
+            pos[2],
+            f"a z in (-{world.depth_m:g}, 0] m (below the surface, above the seabed)",
+        )
+    sonars_raw = d.get("sonars", [])
+    if not isinstance(sonars_raw, list):
+        raise _fail(f"{path}.sonars", sonars_raw, "an array of tables ([[vehicles.sonars]])")
+    sonars = tuple(_parse_sonar(s, f"{path}.sonars[{i}]") for i, s in enumerate(sonars_raw))
+    names = [s.name for s in sonars]
+    for i, n in enumerate(names):
+        if names.index(n) != i:
+            raise _fail(
+                f"{path}.sonars[{i}].name", n, "a name not used by another sonar of this vehicle"
+            )
+    return VehicleSpec(
+        name=name,
+        kind=kind,
+        start_position=pos,  # type: ignore[arg-type]
+        start_yaw_deg=_num(start.get("yaw_deg", 0.0), f"{path}.start.yaw_deg", -360.0, 360.0),
+        mission=_parse_mission(d.get("mission", {}), f"{path}.mission"),
+        sonars=sonars,
+        nav=_parse_nav(d.get("nav", {}), f"{path}.nav"),
+        frontend=_parse_frontend(d.get("frontend", {}), f"{path}.frontend", fe_base),
+        slam=_parse_slam(d.get("slam", {}), f"{path}.slam", slam_base),
+    )
+
+
+TOP_KEYS = (
+    "name",
+    "description",
+    "seed",
+    "duration_s",
+    "control_dt",
+    "world",
+    "vehicles",
+    "frontend",
+    "slam",
+    "outputs",
+)
+
+
+def parse_scenario(data: Mapping[str, Any]) -> Scenario:
+    """Validate a decoded scenario table into a :class:`Scenario` (raises ScenarioError).
+
+    Top-level ``[frontend]`` and ``[slam]`` are defaults every vehicle inherits; a
+    vehicle's own ``[vehicles.frontend]`` / ``[vehicles.slam]`` override them key by key.
+    """
+    d = _table(data, "<scenario>")
+    _check_keys(d, "", TOP_KEYS)
+    if "world" not in d:
+        raise _fail("world", None, "a [world] table")
+    world = _parse_world(d["world"])
+    fe_base = _parse_frontend(d.get("frontend", {}), "frontend", FrontendSpec())
+    slam_base = _parse_slam(d.get("slam", {}), "slam", SlamSpec())
+    vs = d.get("vehicles")
+    if not isinstance(vs, list) or not vs:
+        raise _fail("vehicles", vs, "a non-empty array of tables ([[vehicles]])")
+    vehicles = tuple(
+        _parse_vehicle(v, f"vehicles[{i}]", fe_base, slam_base, world) for i, v in enumerate(vs)
+    )
+    names = [v.name for v in vehicles]
+    for i, n in enumerate(names):
+        if names.index(n) != i:
+            raise _fail(
+                f"vehicles[{i}].name", n, "a name not used by another vehicle (set vehicles.name)"
+            )
+    o = _table(d.get("outputs", {}), "outputs")
+    _check_keys(o, "outputs", ("recording", "figures", "log_sonar_every"))
+    outputs = OutputSpec(
+        recording=_bool(o.get("recording", True), "outputs.recording"),
+        figures=_bool(o.get("figures", True), "outputs.figures"),
+        log_sonar_every=_int(o.get("log_sonar_every", 1), "outputs.log_sonar_every", 1, 10000),
+    )
+    return Scenario(
+        name=_str(d.get("name", "unnamed"), "name"),
+        description=_str(d.get("description", ""), "description"),
+        seed=_int(d.get("seed", 0), "seed", lo=0),
+        duration_s=_num(d.get("duration_s", 60.0), "duration_s", 0.0, 1e6, lo_open=True),
+        control_dt=_num(d.get("control_dt", 0.05), "control_dt", 0.001, 1.0),
+        world=world,
+        vehicles=vehicles,
+        outputs=outputs,
+    )
+
+
+# ------------------------------------------------------------------ loading --------------
+def builtin_dir() -> Path:
+    """Folder of the built-in scenario files (``assets/scenarios``)."""
+    return Path(__file__).resolve().parents[2] / "assets" / "scenarios"
+
+
+def builtin_scenarios() -> dict[str, Path]:
+    """Built-in scenario name -> file, sorted by name."""
+    d = builtin_dir()
+    return {p.stem: p for p in sorted(d.glob("*.toml"))} if d.is_dir() else {}
+
+
+def set_dotted(data: dict, key: str, value: Any) -> dict:
+    """Return a deep copy of ``data`` with ``a.b[0].c = value`` applied (for sweeps).
+
+    The result still goes through :func:`parse_scenario`, so bad overrides fail there with
+    the usual message."""
+    import copy
+    import re
+
+    out = copy.deepcopy(data)
+    parts = re.findall(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?", key)
+    if not parts or ".".join(p[0] + (f"[{p[1]}]" if p[1] else "") for p in parts) != key:
+        raise ScenarioError(
+            f"override key {key!r}: allowed: dotted field names like 'vehicles[0].slam.estimator'"
+        )
+    cur: Any = out
+    for j, (name, idx) in enumerate(parts):
+        last = j == len(parts) - 1
+        if not isinstance(cur, dict):
+            raise ScenarioError(f"override key {key!r}: {name!r} is not inside a table")
+        if idx:
+            lst = cur.get(name)
+            if not isinstance(lst, list) or int(idx) >= len(lst):
+                raise ScenarioError(f"override key {key!r}: {name}[{idx}] does not exist")
+            if last:
+                lst[int(idx)] = value
+            else:
+                cur = lst[int(idx)]
+        elif last:
+            cur[name] = value
+        else:
+            cur = cur.setdefault(name, {})
+    return out
+
+
+def load_scenario_dict(name_or_path: str | Path) -> dict:
+    """Decoded TOML of a built-in scenario name or a file path."""
+    p = Path(name_or_path)
+    builtins = builtin_scenarios()
+    if str(name_or_path) in builtins:
+        p = builtins[str(name_or_path)]
+    elif not p.is_file():
+        raise ScenarioError(
+            f"scenario {str(name_or_path)!r}: not a file and not a built-in; allowed: a .toml path or one of "
+            + ", ".join(builtins)
+        )
+    try:
+        with open(p, "rb") as f:
+            return tomllib.load(f)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"scenario file {str(p)!r}: invalid TOML: {exc}") from exc
+
+
+def load_scenario(name_or_path: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:
+    """Load and validate a scenario by built-in name or path, with optional dotted overrides."""
+    data = load_scenario_dict(name_or_path)
+    for k, v in (overrides or {}).items():
+        data = set_dotted(data, k, v)
+    return parse_scenario(data)

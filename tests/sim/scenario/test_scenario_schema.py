@@ -1,0 +1,158 @@
+"""Scenario validation: each kind of mistake gives one message naming field, value, allowed."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from sim.scenario import (
+    OBJECT_CLASSES,
+    SONAR_PRESETS,
+    VEHICLE_KINDS,
+    ScenarioError,
+    builtin_scenarios,
+    load_scenario,
+    load_scenario_dict,
+    parse_scenario,
+    set_dotted,
+)
+
+
+@pytest.fixture
+def base() -> dict:
+    return load_scenario_dict("shipwreck-survey")
+
+
+def _err(data) -> str:
+    with pytest.raises(ScenarioError) as ei:
+        parse_scenario(data)
+    return str(ei.value)
+
+
+def test_builtins_present_and_valid():
+    """The issue names four built-ins; every file there must parse."""
+    names = set(builtin_scenarios())
+    assert {"shipwreck-survey", "dense-loop", "harbour-fls", "swarms-mapping"} <= names
+    for n in names:
+        s = load_scenario(n)
+        assert s.name == n
+
+
+def test_shipwreck_default_contents():
+    s = load_scenario("shipwreck-survey")
+    v = s.vehicles[0]
+    assert v.kind == "alister9" and v.sonars[0].preset == "deepeye680d"
+    assert v.mission.type == "lawnmower"
+    assert {"shipwreck", "rock", "branch", "mannequin"} <= {o.cls for o in s.world.objects}
+
+
+def test_swarms_has_all_four_vehicles_each_with_own_sonar_and_slam():
+    s = load_scenario("swarms-mapping")
+    assert {v.kind for v in s.vehicles} >= {"alister9", "ixn", "naiad", "saga"}
+    assert all(v.sonars and v.slam.estimator for v in s.vehicles)
+
+
+def test_unknown_top_key_rejected(base):
+    base["durration_s"] = 3
+    msg = _err(base)
+    assert "durration_s" in msg and "duration_s" in msg  # names the bad key and the allowed ones
+
+
+def test_unknown_nested_key_rejected(base):
+    base["vehicles"][0]["mission"]["alt"] = 3
+    msg = _err(base)
+    assert "vehicles[0].mission.alt" in msg and "altitude_m" in msg
+
+
+def test_wrong_type(base):
+    base["duration_s"] = "long"
+    msg = _err(base)
+    assert "'duration_s'" in msg and "'long'" in msg and "a number" in msg
+
+
+def test_out_of_range(base):
+    base["vehicles"][0]["mission"]["speed_mps"] = -1.0
+    msg = _err(base)
+    assert "vehicles[0].mission.speed_mps" in msg and "-1.0" in msg and "> 0" in msg
+
+
+def test_unknown_vehicle(base):
+    base["vehicles"][0]["kind"] = "nautilus"
+    msg = _err(base)
+    assert "vehicles[0].kind" in msg and "'nautilus'" in msg
+    assert all(k in msg for k in VEHICLE_KINDS)
+
+
+def test_unknown_sonar(base):
+    base["vehicles"][0]["sonars"][0]["preset"] = "deepeye999"
+    msg = _err(base)
+    assert "vehicles[0].sonars[0].preset" in msg and all(p in msg for p in SONAR_PRESETS)
+
+
+def test_unknown_object_class(base):
+    base["world"]["objects"][1]["class"] = "submarine"
+    msg = _err(base)
+    assert "world.objects[1].class" in msg and all(c in msg for c in OBJECT_CLASSES)
+
+
+def test_object_outside_seabed(base):
+    base["world"]["objects"][0]["position"] = [500.0, 0.0]
+    msg = _err(base)
+    assert "world.objects[0].position[0]" in msg and "500.0" in msg
+
+
+def test_nan_rejected(base):
+    base["world"]["depth_m"] = float("nan")
+    assert "world.depth_m" in _err(base)
+
+
+def test_duplicate_vehicle_names(base):
+    base["vehicles"].append(copy.deepcopy(base["vehicles"][0]))
+    assert "vehicles[1].name" in _err(base)
+
+
+def test_vehicle_slam_overrides_top_level_defaults(base):
+    base["vehicles"][0]["slam"] = {"estimator": "fastslam2", "params": {"n_particles": 50}}
+    s = parse_scenario(base)
+    assert s.vehicles[0].slam.estimator == "fastslam2"
+    assert s.vehicles[0].slam.timing == "clone"  # inherited from [slam]
+    assert s.vehicles[0].slam.params["n_particles"] == 50
+
+
+def test_set_dotted_override_then_validation(base):
+    d = set_dotted(base, "vehicles[0].slam.estimator", "isam2")
+    assert parse_scenario(d).vehicles[0].slam.estimator == "isam2"
+    assert base["vehicles"][0].get("slam") is None  # the input is not mutated
+    with pytest.raises(ScenarioError, match=r"vehicles\[0\]\.slam\.estimator"):
+        parse_scenario(set_dotted(base, "vehicles[0].slam.estimator", "kalman"))
+    with pytest.raises(ScenarioError, match="does not exist"):
+        set_dotted(base, "vehicles[3].kind", "ixn")
+
+
+def test_unknown_scenario_name_lists_builtins():
+    with pytest.raises(ScenarioError, match="shipwreck-survey"):
+        load_scenario("no-such-scenario")
+
+
+def test_with_overrides_seed_duration():
+    s = load_scenario("shipwreck-survey").with_overrides(seed=9, duration_s=5.0)
+    assert (s.seed, s.duration_s) == (9, 5.0)
+    with pytest.raises(ScenarioError, match="duration_s"):
+        s.with_overrides(duration_s=0.0)
+
+
+@given(st.floats(allow_nan=True, allow_infinity=True) | st.text(max_size=3) | st.booleans())
+def test_speed_property_valid_or_named_error(value):
+    """Property: any value for speed_mps either parses to a finite speed in (0, 5] or raises
+    a ScenarioError naming that exact field - never another exception, never a NaN."""
+    d = load_scenario_dict("shipwreck-survey")
+    d["vehicles"][0]["mission"]["speed_mps"] = value
+    try:
+        s = parse_scenario(d)
+    except ScenarioError as e:
+        assert "vehicles[0].mission.speed_mps" in str(e)
+    else:
+        assert 0 < s.vehicles[0].mission.speed_mps <= 5
