@@ -1,0 +1,269 @@
+"""DVL + gyro dead reckoning, cut into odometry increments for the SLAM predict step.
+
+The output of one interval ``[t0, t1]`` is ``delta = [dx, dy, dphi]``: the horizontal
+displacement expressed in the heading frame at ``t0`` (x along the heading at t0, y to
+port) and the heading change, with its covariance ``cov`` (3, 3). This is the X_δ, P_δ of
+the thesis' AEKF predict (REFERENCE.md, eqs. 5.21–5.27). ``sim`` may not import ``slam``
+outside the runner, so increments are :class:`OdometryIncrement` with the same fields as
+``slam.types.Odometry``; the runner converts with ``Odometry(inc.delta, inc.cov, inc.t)``.
+
+Mechanisation (zero-order hold, forward): the latest DVL velocity and gyro rate are held
+until the next sample. Between events the relative pose integrates
+
+    p <- p + R(phi_mid) T v h,    phi <- phi + c_z (w_z - b) h,
+
+with ``T`` the top two rows of ``Ry(pitch) Rx(roll)`` (levels the DVL velocity with the
+AHRS attitude), ``c_z = cos(roll)/cos(pitch)`` (yaw-rate from body z rate), ``phi_mid``
+the heading at the middle of the chunk and ``b`` a gyro-bias estimate (0 by default).
+
+Covariance: exact linear propagation of an augmented error state
+``e = [dp (2), dphi, n_v (3), n_w, b_w]`` — the pose error, the noise of the *held* DVL
+sample (constant until the next ping, so it is a state, not white process noise), the
+noise of the held gyro sample, and the gyro bias. A new sample replaces its noise state
+by a fresh independent draw (zero cross-covariance, variance = per-sample variance of
+the configured sensor). The bias carries the IMU's turn-on bias variance and its random
+walk. Without DVL lock the last velocity is held and its error random-walks with
+``coast_velocity_std`` (m/s/√s). Not modelled: roll/pitch noise of the levelling
+(second order for a near-level vehicle), x/y gyro noise, DVL scale-factor error.
+The filter is written here because it is a small custom error-state model; the
+linearisation mirrors the AEKF predict Jacobians.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.navigation.sensors import (
+    AHRSMeasurement,
+    DVLConfig,
+    DVLMeasurement,
+    IMUConfig,
+    IMUMeasurement,
+)
+
+__all__ = ["DeadReckoner", "DeadReckoningConfig", "OdometryIncrement", "true_increment"]
+
+# indices of the augmented error state
+_P = slice(0, 2)
+_PHI = 2
+_NV = slice(3, 6)
+_NW = 6
+_B = 7
+_N = 8
+
+
+@dataclass(frozen=True)
+class OdometryIncrement:
+    """One dead-reckoned interval; same fields as ``slam.types.Odometry``.
+
+    delta   : (3,) [dx m, dy m, dphi rad], heading frame at ``t_start`` (x forward, y port).
+    cov     : (3, 3) covariance of ``delta``.
+    t       : end of the interval, s.
+    t_start : start of the interval, s.
+    """
+
+    delta: np.ndarray
+    cov: np.ndarray
+    t: float
+    t_start: float = 0.0
+
+    def __post_init__(self) -> None:
+        d = np.asarray(self.delta, float).reshape(-1)
+        c = np.asarray(self.cov, float)
+        if d.shape != (3,) or c.shape != (3, 3):
+            raise ValueError(
+                f"OdometryIncrement needs delta (3,) and cov (3, 3), got {d.shape}, {c.shape}"
+            )
+        if not (np.all(np.isfinite(d)) and np.all(np.isfinite(c))):
+            raise ValueError(f"OdometryIncrement must be finite, got delta={d}, cov={c.tolist()}")
+        object.__setattr__(self, "delta", d)
+        object.__setattr__(self, "cov", c)
+
+
+@dataclass(frozen=True)
+class DeadReckoningConfig:
+    """Noise figures the dead reckoner assumes (normally taken from the sensor configs).
+
+    dvl_velocity_std   : per-ping velocity noise, m/s (DVLConfig.velocity_noise_std).
+    gyro_sample_std    : per-sample gyro noise, rad/s (density · sqrt(rate)).
+    gyro_bias_std      : initial gyro-bias std, rad/s (IMUConfig.gyro_bias_init_std).
+    gyro_bias_rw       : gyro-bias random walk, rad/s²/√Hz.
+    coast_velocity_std : growth of velocity error without DVL lock, m/s/√s.
+    gyro_bias_estimate : bias subtracted from the z gyro, rad/s (a calibration value).
+    """
+
+    dvl_velocity_std: float
+    gyro_sample_std: float
+    gyro_bias_std: float = 0.0
+    gyro_bias_rw: float = 0.0
+    coast_velocity_std: float = 0.05
+    gyro_bias_estimate: float = 0.0
+
+    def __post_init__(self) -> None:
+        for n in (
+            "dvl_velocity_std",
+            "gyro_sample_std",
+            "gyro_bias_std",
+            "gyro_bias_rw",
+            "coast_velocity_std",
+        ):
+            v = getattr(self, n)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"DeadReckoningConfig.{n} must be a finite number >= 0, got {v!r}")
+        if not math.isfinite(self.gyro_bias_estimate):
+            raise ValueError(
+                f"DeadReckoningConfig.gyro_bias_estimate must be finite, got {self.gyro_bias_estimate!r}"
+            )
+
+    @classmethod
+    def from_sensors(
+        cls, dvl: DVLConfig, imu: IMUConfig, coast_velocity_std: float = 0.05
+    ) -> DeadReckoningConfig:
+        """The noise the configured DVL and IMU actually produce."""
+        return cls(
+            dvl_velocity_std=dvl.velocity_noise_std,
+            gyro_sample_std=imu.gyro_noise_density * math.sqrt(imu.rate_hz),
+            gyro_bias_std=imu.gyro_bias_init_std,
+            gyro_bias_rw=imu.gyro_bias_rw,
+            coast_velocity_std=coast_velocity_std,
+        )
+
+
+def _rot2(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s], [s, c]])
+
+
+def _wrap(a: float) -> float:
+    w = (a + math.pi) % (2.0 * math.pi) - math.pi
+    return math.pi if w == -math.pi else w
+
+
+class DeadReckoner:
+    """Integrates DVL velocity and gyro yaw rate; :meth:`increment` cuts an interval.
+
+    Feed measurements in time order with :meth:`add` (IMU, DVL, AHRS measurements; AHRS
+    only supplies roll/pitch for levelling). ``increment(t)`` integrates the held values
+    up to ``t`` and returns the interval since the previous cut.
+    """
+
+    def __init__(self, config: DeadReckoningConfig, t0: float = 0.0) -> None:
+        self.config = config
+        self.t = float(t0)
+        self.t_start = float(t0)
+        self.p = np.zeros(2)
+        self.phi = 0.0
+        self.v = np.zeros(3)  # held DVL body velocity
+        self.w = 0.0  # held gyro z rate
+        self.roll = 0.0
+        self.pitch = 0.0
+        self.coasting = True  # no DVL lock yet
+        self.P = np.zeros((_N, _N))
+        self.P[_B, _B] = config.gyro_bias_std**2
+        self.n_dvl = 0
+        self.n_dvl_dropped = 0
+
+    # -- propagation -------------------------------------------------------------------
+
+    def _propagate(self, t: float) -> None:
+        h = t - self.t
+        if h < -1e-9:
+            raise ValueError(f"measurement time {t} is before the dead reckoner's time {self.t}")
+        if h <= 0:
+            return
+        c = self.config
+        cr, sr = math.cos(self.roll), math.sin(self.roll)
+        cp, sp = math.cos(self.pitch), math.sin(self.pitch)
+        # top two rows of Ry(pitch) @ Rx(roll): levelled body velocity
+        T = np.array([[cp, sp * sr, sp * cr], [0.0, cr, -sr]])
+        cz = cr / cp
+        rate = cz * (self.w - c.gyro_bias_estimate)
+        phi_mid = self.phi + 0.5 * rate * h
+        R = _rot2(phi_mid)
+        dp = R @ (T @ self.v) * h
+        # error-state transition
+        F = np.eye(_N)
+        Jdp = np.array([-dp[1], dp[0]])  # d(dp)/d(phi_mid)
+        F[_P, _PHI] = Jdp
+        F[_P, _NV] = R @ T * h
+        F[_P, _NW] = Jdp * 0.5 * cz * h
+        F[_P, _B] = Jdp * 0.5 * cz * h
+        F[_PHI, _NW] = cz * h
+        F[_PHI, _B] = cz * h  # the bias adds to the measured z rate like its noise
+        self.P = F @ self.P @ F.T
+        if c.gyro_bias_rw > 0:
+            self.P[_B, _B] += c.gyro_bias_rw**2 * h
+        if self.coasting and c.coast_velocity_std > 0:
+            self.P[_NV, _NV] += np.eye(3) * c.coast_velocity_std**2 * h
+        self.p = self.p + dp
+        self.phi = self.phi + rate * h
+        self.t = t
+
+    def _fresh_noise(self, idx, var: float) -> None:
+        self.P[idx, :] = 0.0
+        self.P[:, idx] = 0.0
+        if isinstance(idx, slice):
+            self.P[idx, idx] = np.eye(idx.stop - idx.start) * var
+        else:
+            self.P[idx, idx] = var
+
+    # -- inputs ------------------------------------------------------------------------
+
+    def add(self, m: IMUMeasurement | DVLMeasurement | AHRSMeasurement) -> None:
+        """Take one measurement (must not be older than the last one)."""
+        self._propagate(m.t)
+        if isinstance(m, IMUMeasurement):
+            self.w = float(m.gyro[2])
+            self._fresh_noise(_NW, self.config.gyro_sample_std**2)
+        elif isinstance(m, DVLMeasurement):
+            self.n_dvl += 1
+            if m.valid and m.velocity_body is not None:
+                self.v = np.asarray(m.velocity_body, float).copy()
+                self.coasting = False
+                self._fresh_noise(_NV, self.config.dvl_velocity_std**2)
+            else:
+                # keep the held velocity and its (now correlated, growing) error
+                self.n_dvl_dropped += 1
+                self.coasting = True
+        elif isinstance(m, AHRSMeasurement):
+            self.roll, self.pitch = float(m.roll), float(m.pitch)
+        else:
+            raise ValueError(
+                "DeadReckoner.add takes IMUMeasurement, DVLMeasurement or AHRSMeasurement, "
+                f"got {type(m).__name__}"
+            )
+
+    def add_all(self, measurements) -> None:
+        for m in sorted(measurements, key=lambda m: m.t):
+            self.add(m)
+
+    def increment(self, t: float) -> OdometryIncrement:
+        """Integrate to ``t`` and return ``[dx, dy, dphi]`` since the last cut, with cov."""
+        self._propagate(float(t))
+        cov = self.P[:3, :3].copy()
+        cov = 0.5 * (cov + cov.T)
+        inc = OdometryIncrement(
+            delta=np.array([self.p[0], self.p[1], _wrap(self.phi)]),
+            cov=cov,
+            t=self.t,
+            t_start=self.t_start,
+        )
+        # new interval: pose error restarts at zero; held-noise and bias states carry over
+        self.P[:3, :] = 0.0
+        self.P[:, :3] = 0.0
+        self.p = np.zeros(2)
+        self.phi = 0.0
+        self.t_start = self.t
+        return inc
+
+
+def true_increment(pose0: np.ndarray, pose1: np.ndarray) -> np.ndarray:
+    """Exact ``[dx, dy, dphi]`` between two 2-D poses ``[x, y, yaw]`` (world), expressed in
+    the frame of ``pose0`` — the quantity :class:`DeadReckoner` estimates."""
+    pose0 = np.asarray(pose0, float)
+    pose1 = np.asarray(pose1, float)
+    d = _rot2(-pose0[2]) @ (pose1[:2] - pose0[:2])
+    return np.array([d[0], d[1], _wrap(pose1[2] - pose0[2])])
