@@ -423,11 +423,22 @@ def _parse_sonar(d, path) -> SonarSpec:
     name = _str(d.get("name", "sss" if preset in SIDESCAN_PRESETS else preset), f"{path}.name")
     if not name.isidentifier():
         raise _fail(f"{path}.name", name, "an identifier (letters, digits, underscore)")
-    return SonarSpec(
-        preset=preset,
-        name=name,
-        overrides=_scalar_overrides(d.get("overrides", {}), f"{path}.overrides"),
-    )
+    overrides = _scalar_overrides(d.get("overrides", {}), f"{path}.overrides")
+    _check_sonar_overrides(preset, overrides, f"{path}.overrides")
+    return SonarSpec(preset=preset, name=name, overrides=overrides)
+
+
+def _check_sonar_overrides(preset: str, overrides: dict, path: str) -> None:
+    """Validate overrides against the sonar's own config dataclass when sim.sonar is
+    importable (its ValueError names the field and the allowed range)."""
+    try:
+        from sim.sonar.config import preset as sonar_preset
+    except ImportError:  # sonar package not landed: checked again at run time
+        return
+    try:
+        sonar_preset(preset, **dict(overrides))
+    except (ValueError, TypeError) as exc:
+        raise ScenarioError(f"scenario field '{path}': {exc}") from exc
 
 
 def _parse_nav(d, path) -> NavSpec:

@@ -156,3 +156,11 @@ def test_speed_property_valid_or_named_error(value):
         assert "vehicles[0].mission.speed_mps" in str(e)
     else:
         assert 0 < s.vehicles[0].mission.speed_mps <= 5
+
+
+def test_sonar_override_checked_against_sonar_config(base):
+    """An override that is not a field of the sonar preset names the field path."""
+    pytest.importorskip("sim.sonar.config")
+    base["vehicles"][0]["sonars"][0]["overrides"] = {"max_rnge": 30.0}
+    msg = _err(base)
+    assert "vehicles[0].sonars[0].overrides" in msg and "max_rnge" in msg
