@@ -1,0 +1,627 @@
+"""FastSLAM 2.0 (Montemerlo, Thrun, Koller and Wegbreit, IJCAI 2003), particles as arrays.
+
+The comparison filter of the reference thesis (chapter 6), which ran Tim Bailey's MATLAB
+implementation. This version follows Bailey's structure and fixes its known failure:
+
+* Each particle ``i`` holds a pose ``xv[i]`` (3,) = ``[x m, y m, phi rad]`` (2-D world
+  frame) with a pose covariance ``Pv[i]`` (3, 3) that odometry grows between observation
+  scans (Bailey: "no predict noise" — the mean is propagated deterministically and the
+  uncertainty is carried as a covariance until the proposal samples it).
+* ``update``: (1) data association per particle (known ``label`` or maximum likelihood with
+  a reject gate and an augment gate on the normalized innovation squared); (2) importance
+  weight ``w_i *= p(z | x_{k-1,i}, m_i)``, the predictive density with
+  ``S = Hv Pv Hv^T + Hf Pf Hf^T + R``, accumulated in LOG form so that a huge innovation
+  (loop closure) never underflows every weight to zero — Bailey's implementation
+  multiplies linear weights and collapses there; (3) resampling (systematic by default,
+  stratified as Bailey) when ``N_eff < resample_threshold * N``, *before* the proposal as
+  Bailey does, for particle diversity; (4) the FastSLAM 2.0 proposal: the pose mean and
+  covariance are refined by a sequential EKF update with every associated observation,
+  then a new pose is *sampled* from that Gaussian with the ``rng`` given; (5) per-particle
+  landmark EKF updates (Joseph form) at the sampled pose and augmentation of new landmarks.
+* Everything is vectorized across particles: poses ``(N, 3)``, landmark means
+  ``(N, M, 2)``, covariances ``(N, M, 2, 2)``, existence mask ``(N, M)``. The only Python
+  loop is over the observations of one scan in the sequential proposal (a handful).
+
+Odometry model (the thesis's AEKF model, eq. 5.21): ``x' = x + dx cos(phi) - dy sin(phi)``,
+``y' = y + dx sin(phi) + dy cos(phi)``, ``phi' = phi + dphi``, increments in the body frame.
+Range-bearing model: ``r = |m - p|``, ``b = atan2(my - y, mx - x) - phi`` (radians,
+counter-clockwise from body x, wrapped to (-pi, pi]).
+
+Estimates: :meth:`FastSLAM2.pose` is the weighted mixture mean and covariance of all
+particles (circular mean for the heading). :meth:`FastSLAM2.landmarks` returns the map of
+the highest-weight particle by default (``map_estimate="best"``, what Bailey plots and the
+thesis's figure 6.1b shows); ``map_estimate="weighted"`` gives the weighted mixture per
+landmark slot, meaningful with known association only (slots are then the same physical
+landmark in every particle). Landmark indices in :class:`UpdateResult` and
+:meth:`landmarks` refer to the same slots.
+
+The algorithm is hand-written (no library implements FastSLAM 2.0 on arrays);
+resampling comes from :mod:`slam.estimators.resampling`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam.estimators.base import UpdateResult
+from slam.estimators.resampling import (
+    normalize_log_weights,
+    stratified_resample,
+    systematic_resample,
+)
+from slam.types import Odometry, RangeBearing
+
+__all__ = ["FastSLAM2", "FastSLAM2Config", "observation_model", "validate_covariance"]
+
+_LOG_2PI = float(np.log(2.0 * np.pi))
+_NEW = -2  # association code inside the filter: observation creates a new landmark
+_REJECT = -1
+
+
+# ---------------------------------------------------------------------------- helpers
+def _wrap(a: np.ndarray) -> np.ndarray:
+    """Wrap radians to [-pi, pi) (vectorized; the +pi/-pi boundary is immaterial here)."""
+    return np.mod(a + np.pi, 2.0 * np.pi) - np.pi
+
+
+def validate_covariance(name: str, cov: np.ndarray, *, positive_definite: bool) -> None:
+    """Raise ValueError unless ``cov`` is a finite, symmetric, PSD (or PD) matrix."""
+    c = np.asarray(cov, dtype=float)
+    if c.ndim != 2 or c.shape[0] != c.shape[1]:
+        raise ValueError(f"{name} must be a square matrix, got shape {c.shape}")
+    if not np.all(np.isfinite(c)):
+        raise ValueError(f"{name} must be finite, got {c.tolist()}")
+    diag = np.diag(c)
+    if np.any(diag < 0.0):
+        raise ValueError(f"{name} has negative variances {diag.tolist()}; variances must be >= 0")
+    scale = max(float(np.max(np.abs(c))), 1e-300)
+    if not np.allclose(c, c.T, rtol=1e-9, atol=1e-12 * scale):
+        raise ValueError(f"{name} must be symmetric, got {c.tolist()}")
+    eig = np.linalg.eigvalsh(0.5 * (c + c.T))
+    if positive_definite and not eig.min() > 1e-12 * scale:
+        raise ValueError(f"{name} must be positive definite, got eigenvalues {eig.tolist()}")
+    if eig.min() < -1e-9 * scale:
+        raise ValueError(f"{name} must be positive semi-definite, got eigenvalues {eig.tolist()}")
+
+
+def observation_model(xv: np.ndarray, m: np.ndarray):
+    """Range-bearing prediction and Jacobians, vectorized over leading dimensions.
+
+    Parameters
+    ----------
+    xv : (..., 3) vehicle poses ``[x, y, phi]`` (m, m, rad), world frame.
+    m : (..., 2) landmark positions (m), world frame; broadcast against ``xv``.
+
+    Returns
+    -------
+    zhat : (..., 2) predicted ``[range m, bearing rad]``.
+    Hv : (..., 2, 3) Jacobian with respect to the pose.
+    Hf : (..., 2, 2) Jacobian with respect to the landmark.
+    """
+    dx = m[..., 0] - xv[..., 0]
+    dy = m[..., 1] - xv[..., 1]
+    d2 = np.maximum(dx * dx + dy * dy, 1e-12)  # a landmark on the vehicle: keep finite
+    d = np.sqrt(d2)
+    zhat = np.stack([d, _wrap(np.arctan2(dy, dx) - xv[..., 2])], axis=-1)
+    Hf = np.empty((*d.shape, 2, 2))
+    Hf[..., 0, 0] = dx / d
+    Hf[..., 0, 1] = dy / d
+    Hf[..., 1, 0] = -dy / d2
+    Hf[..., 1, 1] = dx / d2
+    Hv = np.empty((*d.shape, 2, 3))
+    Hv[..., :, :2] = -Hf
+    Hv[..., 0, 2] = 0.0
+    Hv[..., 1, 2] = -1.0
+    return zhat, Hv, Hf
+
+
+def _inv2(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form inverse and determinant of symmetric 2x2 matrices (..., 2, 2)."""
+    det = S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] * S[..., 1, 0]
+    det = np.maximum(det, 1e-300)
+    inv = np.empty_like(S)
+    inv[..., 0, 0] = S[..., 1, 1] / det
+    inv[..., 1, 1] = S[..., 0, 0] / det
+    inv[..., 0, 1] = -S[..., 0, 1] / det
+    inv[..., 1, 0] = -S[..., 1, 0] / det
+    return inv, det
+
+
+def _sym(P: np.ndarray) -> np.ndarray:
+    return 0.5 * (P + np.swapaxes(P, -1, -2))
+
+
+def _quad(H: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """``H P H^T`` batched."""
+    return H @ P @ np.swapaxes(H, -1, -2)
+
+
+# ---------------------------------------------------------------------------- config
+@dataclass(frozen=True)
+class FastSLAM2Config:
+    """Parameters of :class:`FastSLAM2`.
+
+    n_particles : number of particles (thesis: 100).
+    resample_threshold : resample when ``N_eff < resample_threshold * n_particles``
+        (thesis: 75 of 100 → 0.75).
+    reject_gate : an unlabelled observation is associated with the maximum-likelihood
+        landmark among those whose normalized innovation squared (NIS, chi-square with 2
+        dof) is below this gate (4.0 as the AEKF).
+    augment_gate : if the smallest NIS exceeds this gate (25.0) the observation creates a
+        new landmark in that particle; between the gates it is discarded as ambiguous.
+    new_landmark_log_likelihood : log of the likelihood ``p0`` a particle gets for an
+        observation it explains as a new landmark or discards (Montemerlo's new-feature
+        likelihood). None → the Gaussian log density at ``NIS = augment_gate`` with the
+        measurement covariance R of that observation, so a particle that cannot explain an
+        observation scores like one that explains it at the augment gate.
+    resampler : "systematic" (default) or "stratified" (Bailey's).
+    map_estimate : "best" (highest-weight particle's map) or "weighted".
+    initial_capacity : landmark slots allocated at start (grown by doubling).
+    """
+
+    n_particles: int = 100
+    resample_threshold: float = 0.75
+    reject_gate: float = 4.0
+    augment_gate: float = 25.0
+    new_landmark_log_likelihood: float | None = None
+    resampler: str = "systematic"
+    map_estimate: str = "best"
+    initial_capacity: int = 32
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.n_particles, int | np.integer) and self.n_particles >= 1):
+            raise ValueError(f"n_particles must be an integer >= 1, got {self.n_particles!r}")
+        if not 0.0 <= self.resample_threshold <= 1.0:
+            raise ValueError(
+                f"resample_threshold must be in [0, 1], got {self.resample_threshold!r}"
+            )
+        if not (np.isfinite(self.reject_gate) and self.reject_gate > 0.0):
+            raise ValueError(f"reject_gate must be finite and > 0, got {self.reject_gate!r}")
+        if not (np.isfinite(self.augment_gate) and self.augment_gate >= self.reject_gate):
+            raise ValueError(
+                f"augment_gate must be finite and >= reject_gate ({self.reject_gate}), "
+                f"got {self.augment_gate!r}"
+            )
+        if self.new_landmark_log_likelihood is not None and not np.isfinite(
+            self.new_landmark_log_likelihood
+        ):
+            raise ValueError(
+                "new_landmark_log_likelihood must be finite or None, "
+                f"got {self.new_landmark_log_likelihood!r}"
+            )
+        if self.resampler not in ("systematic", "stratified"):
+            raise ValueError(
+                f"resampler must be 'systematic' or 'stratified', got {self.resampler!r}"
+            )
+        if self.map_estimate not in ("best", "weighted"):
+            raise ValueError(
+                f"map_estimate must be 'best' or 'weighted', got {self.map_estimate!r}"
+            )
+        if not (isinstance(self.initial_capacity, int | np.integer) and self.initial_capacity >= 1):
+            raise ValueError(
+                f"initial_capacity must be an integer >= 1, got {self.initial_capacity!r}"
+            )
+
+
+# ---------------------------------------------------------------------------- filter
+class FastSLAM2:
+    """FastSLAM 2.0 with arrays of particles; implements ``SlamEstimator``.
+
+    Parameters
+    ----------
+    n_particles, resample_threshold, reject_gate, augment_gate, new_landmark_log_likelihood,
+    resampler, map_estimate, initial_capacity : see :class:`FastSLAM2Config`.
+    rng : numpy Generator for proposal sampling and resampling; if None, one is made from
+        ``seed`` (``np.random.default_rng(seed)``).
+    seed : used only when ``rng`` is None.
+    x0 : (3,) initial pose ``[x m, y m, phi rad]`` (default zeros, as Bailey's simulator).
+    P0 : (3, 3) initial pose covariance (default zeros: the map frame is the start pose).
+    config : a ready :class:`FastSLAM2Config` instead of the keywords above.
+    """
+
+    name = "fastslam2"
+
+    def __init__(
+        self,
+        n_particles: int = 100,
+        rng: np.random.Generator | None = None,
+        resample_threshold: float = 0.75,
+        reject_gate: float = 4.0,
+        augment_gate: float = 25.0,
+        *,
+        new_landmark_log_likelihood: float | None = None,
+        resampler: str = "systematic",
+        map_estimate: str = "best",
+        initial_capacity: int = 32,
+        seed: int | None = None,
+        x0=None,
+        P0=None,
+        config: FastSLAM2Config | None = None,
+    ) -> None:
+        if config is None:
+            config = FastSLAM2Config(
+                n_particles=n_particles,
+                resample_threshold=resample_threshold,
+                reject_gate=reject_gate,
+                augment_gate=augment_gate,
+                new_landmark_log_likelihood=new_landmark_log_likelihood,
+                resampler=resampler,
+                map_estimate=map_estimate,
+                initial_capacity=initial_capacity,
+            )
+        self.config = config
+        if rng is None:
+            rng = np.random.default_rng(seed)
+        if not isinstance(rng, np.random.Generator):
+            raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        self.rng = rng
+        x0 = np.zeros(3) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
+        if x0.shape != (3,) or not np.all(np.isfinite(x0)):
+            raise ValueError(f"x0 must be a finite (3,) pose [x, y, phi], got {x0!r}")
+        P0 = np.zeros((3, 3)) if P0 is None else np.asarray(P0, dtype=float)
+        validate_covariance("P0", P0, positive_definite=False)
+        if P0.shape != (3, 3):
+            raise ValueError(f"P0 must have shape (3, 3), got {P0.shape}")
+        n, cap = int(config.n_particles), int(config.initial_capacity)
+        self._xv = np.tile(x0, (n, 1))
+        self._xv[:, 2] = _wrap(self._xv[:, 2])
+        self._Pv = np.tile(_sym(P0), (n, 1, 1))
+        self._logw = np.zeros(n)
+        self._m = np.zeros((n, cap, 2))
+        self._P = np.zeros((n, cap, 2, 2))
+        self._exists = np.zeros((n, cap), dtype=bool)
+        self._count = np.zeros(n, dtype=np.intp)
+        self._slot_label = np.full(cap, -1, dtype=np.int64)
+        self._label_slot: dict[int, int] = {}
+        self.n_resamples = 0
+        self._resample = (
+            systematic_resample if config.resampler == "systematic" else stratified_resample
+        )
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def n_particles(self) -> int:
+        return self._xv.shape[0]
+
+    @property
+    def weights(self) -> np.ndarray:
+        """(N,) normalized importance weights."""
+        return normalize_log_weights(self._logw)[0]
+
+    @property
+    def log_weights(self) -> np.ndarray:
+        """(N,) log importance weights (unnormalized; max shifted to 0 after each update)."""
+        return self._logw.copy()
+
+    @property
+    def particle_poses(self) -> np.ndarray:
+        """(N, 3) particle poses ``[x, y, phi]`` (copy)."""
+        return self._xv.copy()
+
+    def effective_sample_size(self) -> float:
+        w = self.weights
+        return float(1.0 / np.sum(w * w))
+
+    # ------------------------------------------------------------------ predict
+    def predict(self, odometry: Odometry) -> None:
+        """Propagate every particle by one body-frame increment (thesis eq. 5.21).
+
+        The mean moves deterministically; the pose covariance of each particle grows by
+        ``Gv Pv Gv^T + Gu Q Gu^T`` (Q = ``odometry.cov``) and is sampled by the next
+        proposal.
+        """
+        if not isinstance(odometry, Odometry):
+            raise ValueError(
+                f"odometry must be a slam.types.Odometry, got {type(odometry).__name__}"
+            )
+        validate_covariance("Odometry.cov", odometry.cov, positive_definite=False)
+        dx, dy, dphi = odometry.delta
+        Q = _sym(odometry.cov)
+        phi = self._xv[:, 2]
+        c, s = np.cos(phi), np.sin(phi)
+        n = self.n_particles
+        Gv = np.zeros((n, 3, 3))
+        Gv[:, 0, 0] = Gv[:, 1, 1] = Gv[:, 2, 2] = 1.0
+        Gv[:, 0, 2] = -dx * s - dy * c
+        Gv[:, 1, 2] = dx * c - dy * s
+        Gu = np.zeros((n, 3, 3))
+        Gu[:, 0, 0], Gu[:, 0, 1] = c, -s
+        Gu[:, 1, 0], Gu[:, 1, 1] = s, c
+        Gu[:, 2, 2] = 1.0
+        xv = self._xv.copy()
+        xv[:, 0] += dx * c - dy * s
+        xv[:, 1] += dx * s + dy * c
+        xv[:, 2] = _wrap(phi + dphi)
+        self._Pv = _sym(_quad(Gv, self._Pv) + _quad(Gu, Q))
+        self._xv = xv
+
+    # ------------------------------------------------------------------ update
+    def _validate_observations(self, observations) -> tuple[np.ndarray, np.ndarray, list]:
+        if isinstance(observations, RangeBearing):
+            raise ValueError("observations must be a sequence of RangeBearing, got a single one")
+        obs = list(observations)
+        labels = []
+        for i, o in enumerate(obs):
+            if not isinstance(o, RangeBearing):
+                raise ValueError(
+                    f"observations[{i}] must be a slam.types.RangeBearing, got {type(o).__name__}"
+                )
+            validate_covariance(f"observations[{i}].R", o.R, positive_definite=True)
+            if o.label is not None and not isinstance(o.label, int | np.integer):
+                raise ValueError(f"observations[{i}].label must be an int or None, got {o.label!r}")
+            labels.append(None if o.label is None else int(o.label))
+        if not obs:
+            return np.zeros((0, 2)), np.zeros((0, 2, 2)), labels
+        Z = np.array([o.z for o in obs], dtype=float)
+        R = np.array([_sym(o.R) for o in obs], dtype=float)
+        return Z, R, labels
+
+    def _ensure_capacity(self, needed: int) -> None:
+        cap = self._m.shape[1]
+        if needed <= cap:
+            return
+        new_cap = max(needed, 2 * cap)
+        n = self.n_particles
+        m = np.zeros((n, new_cap, 2))
+        P = np.zeros((n, new_cap, 2, 2))
+        e = np.zeros((n, new_cap), dtype=bool)
+        lab = np.full(new_cap, -1, dtype=np.int64)
+        m[:, :cap], P[:, :cap], e[:, :cap], lab[:cap] = (
+            self._m,
+            self._P,
+            self._exists,
+            self._slot_label,
+        )
+        self._m, self._P, self._exists, self._slot_label = m, P, e, lab
+
+    def update(self, observations: Sequence[RangeBearing]) -> UpdateResult:
+        """Associate, weight, resample, sample the proposal, update and augment.
+
+        Returns the associations of the highest-weight particle after the update
+        (landmark slot indices as in :meth:`landmarks`, -1 where it discarded the
+        observation) and the NIS of its associated observations (predictive, with the
+        particle's pose covariance included).
+        """
+        Z, R, labels = self._validate_observations(observations)
+        k = Z.shape[0]
+        if k == 0:
+            return UpdateResult(np.zeros(0, dtype=np.intp), np.zeros(0, dtype=bool), np.zeros(0))
+        cfg = self.config
+        n = self.n_particles
+
+        # New known labels get global slots (the same in every particle).
+        new_labels = []
+        for lab in labels:
+            if lab is not None and lab not in self._label_slot and lab not in new_labels:
+                new_labels.append(lab)
+        base = int(self._count.max()) if n else 0
+        label_slot = dict(self._label_slot)
+        for q, lab in enumerate(new_labels):
+            label_slot[lab] = base + q
+        n_known_new = len(new_labels)
+
+        # Working copies: the state is committed only at the end.
+        xv, Pv, logw = self._xv.copy(), self._Pv.copy(), self._logw.copy()
+        self._ensure_capacity(base + n_known_new + k)  # capacity growth alone is harmless
+        m, P, exists = self._m.copy(), self._P.copy(), self._exists.copy()
+        count = self._count.copy()
+
+        # ---------------------------------------------------------- association
+        assoc = np.full((n, k), _REJECT, dtype=np.intp)
+        nis = np.full((n, k), np.nan)
+        loglik = np.zeros((n, k))
+        unknown = np.array([lab is None for lab in labels])
+        j_unk = np.nonzero(unknown)[0]
+        j_kn = np.nonzero(~unknown)[0]
+        if j_kn.size:
+            slots = np.array([label_slot[labels[j]] for j in j_kn])
+            is_new = slots >= base  # labels first seen now
+            seen: set[int] = set()
+            keep = np.ones(j_kn.size, dtype=bool)
+            for q, (jj, slot, new) in enumerate(zip(j_kn, slots, is_new)):
+                if slot in seen:  # the same label twice in one scan: keep the first
+                    keep[q] = False
+                    continue
+                seen.add(int(slot))
+                assoc[:, jj] = _NEW if new else slot
+            j_kn, slots, is_new = j_kn[keep], slots[keep], is_new[keep]
+            old = j_kn[~is_new]
+            if old.size:
+                zhat, Hv, Hf = observation_model(xv[:, None, :], m[:, slots[~is_new]])
+                S = _quad(Hv, Pv[:, None]) + _quad(Hf, P[:, slots[~is_new]]) + R[old][None]
+                v = Z[old][None] - zhat
+                v[..., 1] = _wrap(v[..., 1])
+                Si, det = _inv2(S)
+                d2 = np.einsum("...i,...ij,...j->...", v, Si, v)
+                nis[:, old] = d2
+                loglik[:, old] = -0.5 * d2 - 0.5 * np.log(det) - _LOG_2PI
+        if j_unk.size:
+            ku = j_unk.size
+            p0 = self._p0(R[j_unk])  # (ku,)
+            if exists.any():
+                zhat, Hv, Hf = observation_model(xv[:, None, :], m)  # (n, cap, ...)
+                S0 = _quad(Hv, Pv[:, None]) + _quad(Hf, P)  # (n, cap, 2, 2)
+                S = S0[:, None] + R[j_unk][None, :, None]  # (n, ku, cap, 2, 2)
+                v = Z[j_unk][None, :, None] - zhat[:, None]
+                v[..., 1] = _wrap(v[..., 1])
+                Si, det = _inv2(S)
+                d2 = np.einsum("...i,...ij,...j->...", v, Si, v)
+                d2 = np.where(exists[:, None, :], d2, np.inf)
+                ll = -0.5 * d2 - 0.5 * np.log(det) - _LOG_2PI
+                ll_gated = np.where(d2 < cfg.reject_gate, ll, -np.inf)
+                best = np.argmax(ll_gated, axis=2)  # (n, ku)
+                best_ll = np.take_along_axis(ll_gated, best[..., None], 2)[..., 0]
+                best_d2 = np.take_along_axis(d2, best[..., None], 2)[..., 0]
+                dmin = d2.min(axis=2)
+                matched = np.isfinite(best_ll)
+                a = np.where(matched, best, np.where(dmin > cfg.augment_gate, _NEW, _REJECT))
+                # One landmark per particle per scan: among observations matched to the same
+                # landmark in a particle, keep the smallest NIS (ties: first observation).
+                same = (a[:, :, None] == a[:, None, :]) & matched[:, :, None] & matched[:, None, :]
+                jidx = np.arange(ku)
+                better = (best_d2[:, None, :] < best_d2[:, :, None]) | (
+                    (best_d2[:, None, :] == best_d2[:, :, None])
+                    & (jidx[None, None, :] < jidx[None, :, None])
+                )
+                loses = np.any(same & better, axis=2)
+                a = np.where(loses, _REJECT, a)
+                matched &= ~loses
+                assoc[:, j_unk] = a
+                nis[:, j_unk] = np.where(matched, best_d2, np.nan)
+                loglik[:, j_unk] = np.where(matched, best_ll, p0[None, :])
+            else:
+                assoc[:, j_unk] = _NEW
+                loglik[:, j_unk] = p0[None, :]
+
+        # ---------------------------------------------------------- weights, resampling
+        logw = logw + loglik.sum(axis=1)
+        logw -= logw.max()  # keep in range; the normalization is implicit
+        w, _ = normalize_log_weights(logw)
+        if 1.0 / np.sum(w * w) < cfg.resample_threshold * n:
+            idx = self._resample(w, self.rng)
+            xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
+            assoc, nis = assoc[idx], nis[idx]
+            logw = np.zeros(n)
+            self.n_resamples += 1
+
+        # ---------------------------------------------------------- proposal (sequential EKF)
+        ar = np.arange(n)
+        for j in range(k):
+            sel = ar[assoc[:, j] >= 0]
+            if sel.size == 0:
+                continue
+            sl = assoc[sel, j]
+            zhat, Hv, Hf = observation_model(xv[sel], m[sel, sl])
+            S = _quad(Hv, Pv[sel]) + _quad(Hf, P[sel, sl]) + R[j]
+            Si, _ = _inv2(S)
+            K = Pv[sel] @ np.swapaxes(Hv, -1, -2) @ Si  # (s, 3, 2)
+            v = Z[j] - zhat
+            v[:, 1] = _wrap(v[:, 1])
+            xv[sel] = xv[sel] + np.einsum("sij,sj->si", K, v)
+            xv[sel, 2] = _wrap(xv[sel, 2])
+            Pv[sel] = _sym(Pv[sel] - K @ S @ np.swapaxes(K, -1, -2))
+
+        # ---------------------------------------------------------- sample the pose
+        draw = np.any(assoc != _REJECT, axis=1)
+        if draw.any():
+            lam, V = np.linalg.eigh(Pv[draw])
+            L = V * np.sqrt(np.maximum(lam, 0.0))[:, None, :]
+            eps = self.rng.standard_normal((int(draw.sum()), 3))
+            xv[draw] = xv[draw] + np.einsum("sij,sj->si", L, eps)
+            xv[draw, 2] = _wrap(xv[draw, 2])
+            Pv[draw] = 0.0
+
+        # ---------------------------------------------------------- landmark EKF updates
+        pi, pj = np.nonzero(assoc >= 0)
+        if pi.size:
+            sl = assoc[pi, pj]
+            zhat, _, Hf = observation_model(xv[pi], m[pi, sl])
+            Pf = P[pi, sl]
+            S = _quad(Hf, Pf) + R[pj]
+            Si, _ = _inv2(S)
+            K = Pf @ np.swapaxes(Hf, -1, -2) @ Si
+            v = Z[pj] - zhat
+            v[:, 1] = _wrap(v[:, 1])
+            m[pi, sl] = m[pi, sl] + np.einsum("sij,sj->si", K, v)
+            IKH = np.eye(2) - K @ Hf  # Joseph form keeps the 2x2 covariances PSD
+            P[pi, sl] = _sym(_quad(IKH, Pf) + _quad(K, R[pj]))
+
+        # ---------------------------------------------------------- augmentation
+        newmask = assoc == _NEW
+        pi, pj = np.nonzero(newmask)
+        if pi.size:
+            slots = np.empty(pi.size, dtype=np.intp)
+            kn = ~unknown[pj]
+            slots[kn] = [label_slot[labels[j]] for j in pj[kn]]
+            # unknown: per particle, the next free slots after every known one
+            first_free = np.maximum(count, base + n_known_new)
+            unk_new = newmask & unknown[None, :]
+            offs = np.cumsum(unk_new, axis=1) - 1
+            slots[~kn] = (first_free[:, None] + offs)[pi[~kn], pj[~kn]]
+            ang = xv[pi, 2] + Z[pj, 1]
+            r = Z[pj, 0]
+            c, s = np.cos(ang), np.sin(ang)
+            m[pi, slots] = xv[pi, :2] + r[:, None] * np.stack([c, s], axis=1)
+            Gz = np.empty((pi.size, 2, 2))
+            Gz[:, 0, 0], Gz[:, 0, 1] = c, -r * s
+            Gz[:, 1, 0], Gz[:, 1, 1] = s, r * c
+            P[pi, slots] = _sym(_quad(Gz, R[pj]))
+            exists[pi, slots] = True
+            count = np.maximum(count, np.where(n_known_new > 0, base + n_known_new, 0))
+            count = np.maximum(count, first_free + unk_new.sum(axis=1))
+            assoc[pi, pj] = slots
+            new_flag = newmask
+        else:
+            new_flag = newmask
+
+        # ---------------------------------------------------------- commit
+        self._xv, self._Pv, self._logw = xv, Pv, logw
+        self._m, self._P, self._exists, self._count = m, P, exists, count
+        for lab in new_labels:
+            self._slot_label[label_slot[lab]] = lab
+        self._label_slot = label_slot
+        b = int(np.argmax(logw))
+        return UpdateResult(associations=assoc[b].copy(), new=new_flag[b].copy(), nis=nis[b].copy())
+
+    def _p0(self, R: np.ndarray) -> np.ndarray:
+        """Log-likelihood given to a new or discarded observation, (k,)."""
+        if self.config.new_landmark_log_likelihood is not None:
+            return np.full(R.shape[0], float(self.config.new_landmark_log_likelihood))
+        _, det = _inv2(R)
+        return -0.5 * self.config.augment_gate - 0.5 * np.log(det) - _LOG_2PI
+
+    # ------------------------------------------------------------------ estimates
+    def best_particle(self) -> int:
+        """Index of the highest-weight particle."""
+        return int(np.argmax(self._logw))
+
+    def pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted mixture mean and covariance of the particle poses.
+
+        ``x = sum w_i x_i`` (circular mean for phi); ``P = sum w_i (Pv_i + d_i d_i^T)``
+        with ``d_i = x_i - x`` (heading difference wrapped).
+        """
+        w = self.weights
+        x = np.empty(3)
+        x[:2] = w @ self._xv[:, :2]
+        x[2] = np.arctan2(w @ np.sin(self._xv[:, 2]), w @ np.cos(self._xv[:, 2]))
+        d = self._xv - x
+        d[:, 2] = _wrap(d[:, 2])
+        Pm = np.einsum("i,ij,ik->jk", w, d, d) + np.einsum("i,ijk->jk", w, self._Pv)
+        return x, _sym(Pm)
+
+    def _slots(self) -> np.ndarray:
+        if self.config.map_estimate == "best":
+            return np.nonzero(self._exists[self.best_particle()])[0]
+        return np.nonzero(self._exists.any(axis=0))[0]
+
+    def landmarks(self) -> tuple[np.ndarray, np.ndarray]:
+        """Landmark means (n, 2) m and covariances (n, 2, 2) m², world frame.
+
+        ``map_estimate="best"``: the highest-weight particle's landmarks, ordered by slot.
+        ``"weighted"``: per slot, the weighted mixture over the particles holding it.
+        """
+        slots = self._slots()
+        if self.config.map_estimate == "best":
+            b = self.best_particle()
+            return self._m[b, slots].copy(), self._P[b, slots].copy()
+        w = self.weights
+        ww = w[:, None] * self._exists[:, slots]  # (n, L)
+        ww = ww / ww.sum(axis=0, keepdims=True)
+        mu = np.einsum("il,ild->ld", ww, self._m[:, slots])
+        d = self._m[:, slots] - mu[None]
+        cov = np.einsum("il,ilj,ilk->ljk", ww, d, d) + np.einsum(
+            "il,iljk->ljk", ww, self._P[:, slots]
+        )
+        return mu, _sym(cov)
+
+    def landmark_labels(self) -> np.ndarray:
+        """(n,) int labels of the landmarks returned by :meth:`landmarks` (-1: unlabelled)."""
+        return self._slot_label[self._slots()].copy()
+
+    def landmark_slots(self) -> np.ndarray:
+        """(n,) slot indices of the landmarks returned by :meth:`landmarks`."""
+        return self._slots()
