@@ -30,8 +30,7 @@ MISSION_TYPES = ("lawnmower", "loop", "line", "waypoints", "hold")
 FRONTEND_METHODS = ("improved_otsu", "otsu", "adaptive", "iterative", "max_entropy", "none")
 FRONTEND_PRESETS = ("auto", "sss_high", "sss_low", "fls")
 ESTIMATORS = ("aekf", "fastslam2", "isam2", "none")
-NAV_SENSORS = ("imu", "dvl", "pressure", "compass", "gps")
-NAV_PRESETS = ("default", "ideal", "low_cost")
+NAV_SENSORS = ("imu", "dvl", "depth", "ahrs", "gps")
 TIMING_MODES = ("clone", "delayed")
 
 
@@ -106,8 +105,38 @@ class SonarSpec:
 
 @dataclass(frozen=True)
 class NavSpec:
-    preset: str = "default"
-    overrides: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    """Navigation sensors: per sensor (imu, dvl, depth, ahrs, gps) an optional preset name
+    and field overrides of sim.navigation's configs; coast_velocity_std m/s/sqrt(s)."""
+
+    sensors: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    coast_velocity_std: float = 0.05
+
+    def suite_config(self):
+        """The sim.navigation.NavSuiteConfig this spec describes."""
+        from sim.navigation import (
+            AHRSConfig,
+            DepthConfig,
+            DVLConfig,
+            GPSConfig,
+            IMUConfig,
+            NavSuiteConfig,
+        )
+
+        classes = {
+            "imu": IMUConfig,
+            "dvl": DVLConfig,
+            "depth": DepthConfig,
+            "ahrs": AHRSConfig,
+            "gps": GPSConfig,
+        }
+        kw: dict[str, Any] = {}
+        for k, d in self.sensors.items():
+            d = dict(d)
+            preset = d.pop("preset", None)
+            cls = classes[k]
+            base = NavSuiteConfig.__dataclass_fields__[k].default_factory()  # type: ignore[misc]
+            kw[k] = cls.preset(preset, **d) if preset else replace(base, **d)
+        return NavSuiteConfig(**kw, coast_velocity_std=self.coast_velocity_std)
 
 
 @dataclass(frozen=True)
@@ -443,11 +472,24 @@ def _check_sonar_overrides(preset: str, overrides: dict, path: str) -> None:
 
 def _parse_nav(d, path) -> NavSpec:
     d = _table(d, path)
-    _check_keys(d, path, ("preset", *NAV_SENSORS))
-    ov = {k: _scalar_overrides(d[k], f"{path}.{k}") for k in NAV_SENSORS if k in d}
-    return NavSpec(
-        preset=_str(d.get("preset", "default"), f"{path}.preset", NAV_PRESETS), overrides=ov
+    _check_keys(d, path, ("coast_velocity_std", *NAV_SENSORS))
+    sensors = {k: _scalar_overrides(d[k], f"{path}.{k}") for k in NAV_SENSORS if k in d}
+    spec = NavSpec(
+        sensors=sensors,
+        coast_velocity_std=_num(
+            d.get("coast_velocity_std", 0.05), f"{path}.coast_velocity_std", 0.0, 10.0
+        ),
     )
+    try:
+        import sim.navigation  # noqa: F401
+    except ImportError:  # navigation package not available: checked again at run time
+        return spec
+    for k in sensors:
+        try:
+            NavSpec(sensors={k: sensors[k]}).suite_config()
+        except (ValueError, TypeError) as exc:
+            raise ScenarioError(f"scenario field '{path}.{k}': {exc}") from exc
+    return spec
 
 
 def _parse_vehicle(

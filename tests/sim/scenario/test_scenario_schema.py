@@ -164,3 +164,16 @@ def test_sonar_override_checked_against_sonar_config(base):
     base["vehicles"][0]["sonars"][0]["overrides"] = {"max_rnge": 30.0}
     msg = _err(base)
     assert "vehicles[0].sonars[0].overrides" in msg and "max_rnge" in msg
+
+
+def test_nav_sensor_preset_and_override_checked(base):
+    """Nav presets/overrides are checked against sim.navigation's configs."""
+    pytest.importorskip("sim.navigation")
+    base["vehicles"][0]["nav"] = {"dvl": {"preset": "rdi999"}}
+    msg = _err(base)
+    assert "vehicles[0].nav.dvl" in msg and "rdi600" in msg
+    base["vehicles"][0]["nav"] = {"imu": {"preset": "tactical"}}
+    cfg = parse_scenario(base).vehicles[0].nav.suite_config()
+    from sim.navigation import IMUConfig
+
+    assert cfg.imu == IMUConfig.preset("tactical")
