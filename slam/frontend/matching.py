@@ -1,0 +1,332 @@
+"""Keypoint matching between overlapping sonar images (thesis Ch. 4.2).
+
+Detectors (OpenCV): ``"sift"`` (cv2.SIFT), ``"orb"`` (cv2.ORB, binary, Hamming distance)
+and ``"asift"`` (cv2.AffineFeature wrapping SIFT: SIFT over simulated affine tilts and
+rotations, Morel & Yu). SURF, the thesis's main detector, is patented code kept in
+opencv-contrib's ``xfeatures2d`` "nonfree" module, which pip's OpenCV wheels do not build;
+it is therefore not offered here (SIFT is its closest free substitute).
+
+Candidate pairs follow the thesis's bidirectional nearest-neighbour criterion with ratio
+α ≤ 1 (eqs. 4.16–4.18): (p_i, q_j) is kept when q_j is p_i's nearest neighbour and p_i
+is q_j's (A), and d(p_i, q_j) ≤ α × the second-nearest distance on both sides (B, C).
+RANSAC then fits a similarity (``cv2.estimateAffinePartial2D``, default) or a homography
+(``cv2.findHomography``); two images are "matched" when at least 3 inlier pairs remain.
+
+Transforms map pixel coordinates (x = column, y = row) of image A to image B.
+``rotation_deg`` is counter-clockwise as displayed (the sign ``cv2.getRotationMatrix2D``
+uses), ``scale`` is B/A size.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam.io.images import as_grey_float
+
+DETECTORS = ("sift", "orb", "asift")
+
+
+@dataclass(frozen=True)
+class Keypoints:
+    """points : (N, 2) float32 pixel (x, y); descriptors : (N, D) (float32 or uint8)."""
+
+    points: np.ndarray
+    descriptors: np.ndarray
+    detector: str
+
+    def __len__(self) -> int:
+        return int(self.points.shape[0])
+
+
+@dataclass(frozen=True)
+class MatchResult:
+    """Outcome of :func:`match_images`.
+
+    n_keypoints_a, n_keypoints_b : detected keypoints.
+    pairs       : (K, 2) int, candidate pairs (index in A, index in B) after eqs. 4.16–4.18.
+    inliers     : (K,) bool, RANSAC inliers among ``pairs``.
+    n_inliers   : inliers.sum().
+    matched     : n_inliers >= min_inliers (3 in the thesis).
+    transform   : (2, 3) similarity or (3, 3) homography A → B, or None.
+    rotation_deg, scale : from the similarity (nan for none / homography's linear part).
+    time_s      : wall time of detection + matching + RANSAC.
+    """
+
+    detector: str
+    n_keypoints_a: int
+    n_keypoints_b: int
+    pairs: np.ndarray
+    inliers: np.ndarray
+    n_inliers: int
+    matched: bool
+    transform: np.ndarray | None
+    rotation_deg: float
+    scale: float
+    time_s: float
+
+    @property
+    def n_candidates(self) -> int:
+        return int(self.pairs.shape[0])
+
+    def summary(self) -> dict:
+        return {
+            "detector": self.detector,
+            "keypoints_a": self.n_keypoints_a,
+            "keypoints_b": self.n_keypoints_b,
+            "candidates": self.n_candidates,
+            "inliers": self.n_inliers,
+            "matched": self.matched,
+            "rotation_deg": self.rotation_deg,
+            "scale": self.scale,
+            "transform": None if self.transform is None else self.transform.tolist(),
+            "time_s": self.time_s,
+        }
+
+
+def to_uint8(image: np.ndarray, *, low: float = 0.5, high: float = 99.5) -> np.ndarray:
+    """Percentile-stretch a grey image to uint8 (detectors need 8-bit input).
+
+    uint8 input is returned unchanged. A constant image maps to zeros.
+    """
+    a = np.asarray(image)
+    if a.dtype == np.uint8 and a.ndim == 2 and a.size:
+        return a
+    f = as_grey_float(a, name="image").astype(np.float64)
+    lo, hi = np.percentile(f, [low, high])
+    if hi <= lo:
+        return np.zeros(f.shape, np.uint8)
+    return np.clip(np.rint(255.0 * (f - lo) / (hi - lo)), 0, 255).astype(np.uint8)
+
+
+def _make_detector(detector: str, max_features: int):
+    import cv2
+
+    if detector == "sift":
+        return cv2.SIFT_create(nfeatures=max_features)
+    if detector == "orb":
+        return cv2.ORB_create(nfeatures=max_features or 5000)
+    if detector == "asift":
+        return cv2.AffineFeature_create(cv2.SIFT_create(nfeatures=max_features))
+    raise ValueError(
+        f"detector {detector!r} not available; allowed {DETECTORS} "
+        "(SURF is not built into pip OpenCV: it lives in opencv-contrib's nonfree module)"
+    )
+
+
+def detect(image: np.ndarray, detector: str = "sift", *, max_features: int = 0) -> Keypoints:
+    """Detect keypoints and compute descriptors on a grey image (any dtype; stretched to
+    uint8 by :func:`to_uint8`). ``max_features`` 0 = detector default (ORB: 5000)."""
+    det = _make_detector(detector, max_features)
+    img = to_uint8(image)
+    kps, desc = det.detectAndCompute(img, None)
+    if desc is None or len(kps) == 0:
+        width = 32 if detector == "orb" else 128
+        dtype = np.uint8 if detector == "orb" else np.float32
+        return Keypoints(np.zeros((0, 2), np.float32), np.zeros((0, width), dtype), detector)
+    pts = np.array([k.pt for k in kps], dtype=np.float32).reshape(-1, 2)
+    return Keypoints(pts, desc, detector)
+
+
+def _nn2(
+    query: np.ndarray, train: np.ndarray, norm: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each query row: index of nearest train row, its distance, second distance
+    (inf when train has one row)."""
+    import cv2
+
+    bf = cv2.BFMatcher(norm, crossCheck=False)
+    k = min(2, train.shape[0])
+    knn = bf.knnMatch(query, train, k=k)
+    idx = np.array([m[0].trainIdx for m in knn], dtype=np.int64)
+    d1 = np.array([m[0].distance for m in knn], dtype=np.float64)
+    d2 = np.array([m[1].distance if len(m) > 1 else np.inf for m in knn], dtype=np.float64)
+    return idx, d1, d2
+
+
+def bidirectional_matches(
+    desc_a: np.ndarray, desc_b: np.ndarray, *, ratio: float = 0.8, binary: bool = False
+) -> np.ndarray:
+    """Candidate pairs by the thesis's bidirectional nearest-neighbour rule (eqs. 4.16–4.18).
+
+    A: mutual nearest neighbours; B: d(p_i, q_j) ≤ α·(second-nearest distance from p_i in
+    Q); C: d(p_i, q_j) ≤ α·(second-nearest distance from q_j in P). ``binary`` selects
+    Hamming distance (ORB), else L2. Returns (K, 2) int pairs (i in A, j in B).
+    """
+    import cv2
+
+    if not 0.0 < ratio <= 1.0:
+        raise ValueError(f"ratio alpha must be in (0, 1], got {ratio}")
+    if desc_a is None or desc_b is None or len(desc_a) == 0 or len(desc_b) == 0:
+        return np.zeros((0, 2), np.int64)
+    norm = cv2.NORM_HAMMING if binary else cv2.NORM_L2
+    da = np.ascontiguousarray(desc_a)
+    db = np.ascontiguousarray(desc_b)
+    j_of_i, d_ab, d2_a = _nn2(da, db, norm)
+    i_of_j, _, d2_b = _nn2(db, da, norm)
+    i = np.arange(da.shape[0])
+    mutual = i_of_j[j_of_i] == i  # (4.16)
+    cond_b = d_ab <= ratio * d2_a  # (4.17)
+    cond_c = d_ab <= ratio * d2_b[j_of_i]  # (4.18)
+    keep = mutual & cond_b & cond_c
+    return np.stack([i[keep], j_of_i[keep]], axis=1).astype(np.int64)
+
+
+def similarity_params(m: np.ndarray) -> tuple[float, float]:
+    """(rotation_deg counter-clockwise as displayed, scale) of a 2×3 similarity."""
+    m = np.asarray(m, dtype=np.float64)
+    scale = float(np.hypot(m[0, 0], m[1, 0]))
+    rot = float(np.degrees(np.arctan2(-m[1, 0], m[0, 0])))
+    return rot, scale
+
+
+def match_images(
+    a: np.ndarray,
+    b: np.ndarray,
+    *,
+    detector: str = "sift",
+    ratio: float = 0.8,
+    model: str = "similarity",
+    ransac_threshold: float = 3.0,
+    min_inliers: int = 3,
+    max_features: int = 0,
+) -> MatchResult:
+    """Detect, match (eqs. 4.16–4.18) and verify with RANSAC; see the module docstring.
+
+    Raises ValueError for bad images, an unknown detector or model, ratio outside (0, 1].
+    """
+    import cv2
+
+    if model not in ("similarity", "homography"):
+        raise ValueError(f"model must be 'similarity' or 'homography', got {model!r}")
+    if not 0.0 < ratio <= 1.0:
+        raise ValueError(f"ratio alpha must be in (0, 1], got {ratio}")
+    t0 = time.perf_counter()
+    ka = detect(a, detector, max_features=max_features)
+    kb = detect(b, detector, max_features=max_features)
+    pairs = bidirectional_matches(
+        ka.descriptors, kb.descriptors, ratio=ratio, binary=detector == "orb"
+    )
+    transform = None
+    inliers = np.zeros(pairs.shape[0], bool)
+    need = 2 if model == "similarity" else 4
+    if pairs.shape[0] >= need:
+        src = ka.points[pairs[:, 0]].reshape(-1, 1, 2)
+        dst = kb.points[pairs[:, 1]].reshape(-1, 1, 2)
+        if model == "similarity":
+            m, mask = cv2.estimateAffinePartial2D(
+                src,
+                dst,
+                method=cv2.RANSAC,
+                ransacReprojThreshold=ransac_threshold,
+                maxIters=5000,
+                confidence=0.999,
+            )
+        else:
+            m, mask = cv2.findHomography(src, dst, cv2.RANSAC, ransac_threshold)
+        if m is not None and mask is not None:
+            transform = np.asarray(m, dtype=np.float64)
+            inliers = mask.reshape(-1).astype(bool)
+    n_in = int(inliers.sum())
+    rot, scale = (np.nan, np.nan)
+    if transform is not None:
+        lin = transform[:2, :3] if model == "similarity" else transform[:2, :3] / transform[2, 2]
+        rot, scale = similarity_params(lin)
+    return MatchResult(
+        detector=detector,
+        n_keypoints_a=len(ka),
+        n_keypoints_b=len(kb),
+        pairs=pairs,
+        inliers=inliers,
+        n_inliers=n_in,
+        matched=n_in >= min_inliers,
+        transform=transform,
+        rotation_deg=rot,
+        scale=scale,
+        time_s=time.perf_counter() - t0,
+    )
+
+
+def rotate_scale(
+    image: np.ndarray, angle_deg: float, scale: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate (counter-clockwise as displayed) and scale an image about its centre into a
+    canvas big enough to hold all of it. Returns (warped uint8 image, 2×3 transform A→B)."""
+    import cv2
+
+    img = to_uint8(image)
+    if scale <= 0:
+        raise ValueError(f"scale must be > 0, got {scale}")
+    h, w = img.shape
+    m = cv2.getRotationMatrix2D((w / 2.0, h / 2.0), float(angle_deg), float(scale))
+    corners = np.array([[0, 0, 1], [w, 0, 1], [0, h, 1], [w, h, 1]], dtype=np.float64)
+    xy = corners @ m.T
+    lo = xy.min(axis=0)
+    size = np.ceil(xy.max(axis=0) - lo).astype(int)
+    m[:, 2] -= lo
+    out = cv2.warpAffine(img, m, (int(size[0]), int(size[1])), flags=cv2.INTER_LINEAR)
+    return out, m
+
+
+@dataclass(frozen=True)
+class SweepRow:
+    """One cell of a Table-4.3-style sweep."""
+
+    angle_deg: float
+    scale: float
+    n_inliers: int
+    matched: bool
+    rotation_error_deg: float
+    scale_error: float
+    corner_error_px: float
+    time_s: float
+
+
+def rotation_scale_sweep(
+    image: np.ndarray,
+    *,
+    angles_deg: tuple[float, ...] = (20, 45, 90, 135, 180),
+    scales: tuple[float, ...] = (0.6, 0.8, 0.9, 1.0, 1.1, 1.2, 1.4),
+    detector: str = "sift",
+    ratio: float = 0.8,
+    blur: tuple[int, float] | None = (11, 1.5),
+) -> list[SweepRow]:
+    """Thesis Table 4.3 protocol: image A = ``image`` blurred with a Gaussian (11×11,
+    σ 1.5; the "large-space low-resolution" image), image B = ``image`` rotated and scaled.
+    Each cell reports inliers, whether matched, and the recovered transform's errors
+    against the known one (rotation, relative scale, mean error at A's corners, px in B).
+    """
+    import cv2
+
+    base = to_uint8(image)
+    a = cv2.GaussianBlur(base, (blur[0], blur[0]), blur[1]) if blur else base
+    h, w = base.shape
+    corners = np.array([[0, 0, 1], [w, 0, 1], [0, h, 1], [w, h, 1]], dtype=np.float64)
+    rows = []
+    for s in scales:
+        for ang in angles_deg:
+            b, m_true = rotate_scale(base, ang, s)
+            res = match_images(a, b, detector=detector, ratio=ratio)
+            if res.transform is None:
+                rot_err = scale_err = corner_err = np.nan
+            else:
+                rot_err = float(abs((res.rotation_deg - ang + 180.0) % 360.0 - 180.0))
+                scale_err = float(abs(res.scale / s - 1.0))
+                corner_err = float(
+                    np.mean(np.linalg.norm(corners @ res.transform.T - corners @ m_true.T, axis=1))
+                )
+            rows.append(
+                SweepRow(
+                    float(ang),
+                    float(s),
+                    res.n_inliers,
+                    res.matched,
+                    rot_err,
+                    scale_err,
+                    corner_err,
+                    res.time_s,
+                )
+            )
+    return rows
