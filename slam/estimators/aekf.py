@@ -1,0 +1,752 @@
+"""AEKF-SLAM: the augmented extended Kalman filter of the reference thesis, chapter 5.
+
+State ``x = [x_v, y_v, phi_v, x_1, y_1, ..., x_n, y_n]`` (m, m, rad, m ...) in the 2-D
+world frame (x east, y north, phi counter-clockwise from x), covariance ``P``. Three
+steps, each a pure ``(x, P) -> (x, P)`` function beside the thin class :class:`AEKFSlam`:
+
+* :func:`predict` — eqs. 5.21–5.27: odometry increment ``u = [dx, dy, dphi]`` in the body
+  frame at the start of the interval with covariance ``Q``; only ``P_v`` and ``P_vm`` change
+  (O(n)).
+* :func:`update` — eqs. 5.28–5.39: range-bearing observations of known landmarks, batch
+  (all of a scan in one stacked update) or sequential; Kalman gain through a Cholesky
+  factor of ``S`` and the symmetric form ``P - W1 W1ᵀ`` (or the Joseph form, option),
+  O(n² k) for k observations, no O(n³) step.
+* :func:`augment` — eqs. 5.40–5.47: new landmarks fill only the new row/column blocks
+  (O(n) per landmark).
+
+plus :func:`associate` (maximum-likelihood or nearest-neighbour gated association,
+vectorized over all landmarks × observations, the reject/augment gates of Tim Bailey's
+toolbox which the reference used: 4.0 and 25.0) and :func:`remove_landmarks` (state
+reduction). Names follow filterpy: ``x, P, F, Q, R, H, K, y, S``. The thesis's ``J_v`` is
+``F`` here and its noise Jacobian ``Q_v`` is ``G`` (``Q`` stays the odometry covariance).
+
+Hand-written: the equations are the reference's own; no library in the project's
+dependencies implements landmark EKF-SLAM (filterpy, which is not a dependency, has a
+generic EKF only).
+
+Consistency options beyond the reference (see ``AEKFConfig.jacobians``): ``"fej"``
+evaluates the prediction Jacobian at the previous *predicted* pose and the landmark
+Jacobians at each landmark's first estimate (Huang, Mourikis and Roumeliotis, "Analysis
+and improvement of the consistency of extended Kalman filter based SLAM", ICRA 2008), which
+keeps the filter's unobservable subspace three-dimensional as in the true system.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import blas as _blas
+from scipy.linalg import solve_triangular
+
+from slam.estimators.base import UpdateResult
+from slam.types import Odometry, RangeBearing
+
+__all__ = [
+    "AEKFConfig",
+    "AEKFSlam",
+    "associate",
+    "augment",
+    "compose_odometry",
+    "observe",
+    "predict",
+    "remove_landmarks",
+    "update",
+]
+
+_TWO_PI = 2.0 * math.pi
+
+
+def _wrap(a):
+    """Wrap angles to [-pi, pi) fast (array or float); the sign at exactly ±pi is irrelevant
+    for innovations."""
+    return np.mod(np.asarray(a) + math.pi, _TWO_PI) - math.pi
+
+
+def _wrap_f(a: float) -> float:
+    return (a + math.pi) % _TWO_PI - math.pi
+
+
+# --------------------------------------------------------------------------- validation
+
+
+def _check_state(x: np.ndarray, P: np.ndarray, *, psd: bool = False) -> None:
+    if x.ndim != 1 or x.size < 3 or (x.size - 3) % 2:
+        raise ValueError(f"x must have shape (3 + 2n,), got {x.shape}")
+    if P.shape != (x.size, x.size):
+        raise ValueError(f"P must have shape {(x.size, x.size)} to match x, got {P.shape}")
+    if psd:
+        _check_cov("P", P)
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"x must be finite, got {x}")
+
+
+def _check_cov(name: str, C: np.ndarray, tol: float = 1e-9) -> None:
+    """Symmetric positive semi-definite, finite, non-negative variances."""
+    if not np.all(np.isfinite(C)):
+        raise ValueError(f"{name} must be finite, got {np.asarray(C).tolist()}")
+    d = np.diagonal(C, axis1=-2, axis2=-1)
+    if np.any(d < 0.0):
+        raise ValueError(f"{name} has a negative variance {d.min()}; variances must be >= 0")
+    scale = max(1.0, float(np.abs(C).max()) if C.size else 1.0)
+    if not np.allclose(C, np.swapaxes(C, -1, -2), rtol=1e-9, atol=tol * scale):
+        raise ValueError(f"{name} must be symmetric, got {np.asarray(C).tolist()}")
+    if C.shape[-1] == 2:
+        det = C[..., 0, 0] * C[..., 1, 1] - C[..., 0, 1] * C[..., 1, 0]
+        if np.any(det < -tol * scale * scale):
+            raise ValueError(
+                f"{name} must be positive semi-definite, got determinant {det.min()}"
+            )
+    elif C.size:
+        w = np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, -1, -2)))
+        if np.any(w < -tol * scale):
+            raise ValueError(
+                f"{name} must be positive semi-definite, got eigenvalue {w.min()}"
+            )
+
+
+def _as_odometry(u, Q) -> tuple[np.ndarray, np.ndarray]:
+    u = np.asarray(u, dtype=float).reshape(-1)
+    Q = np.asarray(Q, dtype=float)
+    if u.shape != (3,):
+        raise ValueError(f"u (odometry increment) must have shape (3,), got {u.shape}")
+    if Q.shape != (3, 3):
+        raise ValueError(f"Q (odometry covariance) must have shape (3, 3), got {Q.shape}")
+    if not np.all(np.isfinite(u)):
+        raise ValueError(f"u (odometry increment) must be finite, got {u}")
+    _check_cov("Q (odometry covariance)", Q)
+    return u, Q
+
+
+def _as_observations(z, R) -> tuple[np.ndarray, np.ndarray]:
+    """z (k, 2) [range m, bearing rad]; R (2, 2) or (k, 2, 2). Returns R as (k, 2, 2)."""
+    z = np.asarray(z, dtype=float)
+    if z.ndim == 1 and z.size == 2:
+        z = z.reshape(1, 2)
+    if z.ndim != 2 or z.shape[1] != 2:
+        raise ValueError(f"z (observations) must have shape (k, 2), got {z.shape}")
+    R = np.asarray(R, dtype=float)
+    if R.shape == (2, 2):
+        R = np.broadcast_to(R, (z.shape[0], 2, 2))
+    if R.shape != (z.shape[0], 2, 2):
+        raise ValueError(f"R must have shape (2, 2) or ({z.shape[0]}, 2, 2), got {R.shape}")
+    if not np.all(np.isfinite(z)):
+        raise ValueError(f"z (observations) must be finite, got {z.tolist()}")
+    if z.size and np.any(z[:, 0] <= 0.0):
+        raise ValueError(
+            f"z range must be > 0 m (a zero range has no bearing), got {z[:, 0].min()}"
+        )
+    _check_cov("R (observation covariance)", R)
+    return z, R
+
+
+# --------------------------------------------------------------------------- pure steps
+
+
+def predict(x, P, u, Q, *, x_lin=None, inplace: bool = False):
+    """Prediction from one odometry increment (thesis eqs. 5.21–5.27).
+
+    Parameters
+    ----------
+    x : (3 + 2n,) state; P : (3 + 2n, 3 + 2n) covariance.
+    u : (3,) ``[dx m, dy m, dphi rad]`` in the body frame at the start of the interval.
+    Q : (3, 3) covariance of ``u``.
+    x_lin : (3,) optional linearization pose for ``F``: ``F = I + E(x_v' - x_lin)`` with
+        ``E(d) = [[0, 0, -d_y], [0, 0, d_x], [0, 0, 0]]``. Default ``x[:3]`` (the standard
+        EKF); the first-estimates-Jacobian filter passes the previous *predicted* pose.
+    inplace : write into ``x`` and ``P`` (the class does, after validation) instead of copies.
+
+    Returns ``(x, P)``. Only ``P_v`` (3×3) and ``P_vm`` / ``P_mv`` change: O(n).
+    """
+    x = np.asarray(x, dtype=float)
+    P = np.asarray(P, dtype=float)
+    if not inplace:
+        x = x.copy()
+        P = P.copy()
+    phi = float(x[2])
+    c, s = math.cos(phi), math.sin(phi)
+    dxw = c * u[0] - s * u[1]
+    dyw = s * u[0] + c * u[1]
+    xn, yn = float(x[0]) + dxw, float(x[1]) + dyw
+    ref = x if x_lin is None else x_lin
+    F = np.array([[1.0, 0.0, -(yn - ref[1])], [0.0, 1.0, xn - ref[0]], [0.0, 0.0, 1.0]])
+    G = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    Pvv = F @ P[:3, :3] @ F.T + G @ Q @ G.T
+    P[:3, :3] = 0.5 * (Pvv + Pvv.T)
+    if P.shape[0] > 3:
+        Pvm = F @ P[:3, 3:]
+        P[:3, 3:] = Pvm
+        P[3:, :3] = Pvm.T
+    x[0], x[1], x[2] = xn, yn, _wrap_f(phi + float(u[2]))
+    return x, P
+
+
+def compose_odometry(u1, Q1, u2, Q2) -> tuple[np.ndarray, np.ndarray]:
+    """Compose two body-frame increments ``u = u1 ⊕ u2`` with first-order covariance.
+
+    A prediction with ``u`` gives the same mean as two predictions with ``u1`` then ``u2``
+    (the composition is associative), and — because the Jacobians of the composite are
+    exactly the chain-rule products evaluated at the same points — the same EKF covariance
+    (``F = F2 F1``, proved in the tests to rounding error). So a filter may be predicted
+    once per observation scan instead of once per control step without changing results.
+    """
+    u1 = np.asarray(u1, dtype=float)
+    u2 = np.asarray(u2, dtype=float)
+    c, s = math.cos(u1[2]), math.sin(u1[2])
+    u = np.array(
+        [u1[0] + c * u2[0] - s * u2[1], u1[1] + s * u2[0] + c * u2[1], _wrap_f(u1[2] + u2[2])]
+    )
+    A = np.array([[1.0, 0.0, -(s * u2[0] + c * u2[1])], [0.0, 1.0, c * u2[0] - s * u2[1]], [0, 0, 1]])
+    B = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    Q = A @ Q1 @ A.T + B @ Q2 @ B.T
+    return u, 0.5 * (Q + Q.T)
+
+
+def observe(x, idx, *, x_lin=None):
+    """Predicted observations and Jacobians of landmarks ``idx`` (eqs. 5.30, 5.36–5.39).
+
+    Returns ``zhat (k, 2)`` at ``x`` and ``Hv (k, 2, 3)``, ``Hm (k, 2, 2)`` — the non-zero
+    blocks of each row pair of ``H`` (vehicle columns, landmark columns) — at ``x_lin``
+    (default ``x``).
+    """
+    x = np.asarray(x, dtype=float)
+    idx = np.asarray(idx, dtype=np.intp)
+    lm = x[3:].reshape(-1, 2)[idx]
+    d = lm - x[:2]
+    zhat = np.empty((idx.size, 2))
+    zhat[:, 0] = np.hypot(d[:, 0], d[:, 1])
+    zhat[:, 1] = _wrap(np.arctan2(d[:, 1], d[:, 0]) - x[2])
+    if x_lin is not None:
+        x_lin = np.asarray(x_lin, dtype=float)
+        d = x_lin[3:].reshape(-1, 2)[idx] - x_lin[:2]
+    Hv, Hm = _jacobians(d)
+    return zhat, Hv, Hm
+
+
+def _jacobians(d: np.ndarray):
+    q = d[:, 0] ** 2 + d[:, 1] ** 2
+    r = np.sqrt(q)
+    Hm = np.empty((d.shape[0], 2, 2))
+    Hm[:, 0, 0] = d[:, 0] / r
+    Hm[:, 0, 1] = d[:, 1] / r
+    Hm[:, 1, 0] = -d[:, 1] / q
+    Hm[:, 1, 1] = d[:, 0] / q
+    Hv = np.zeros((d.shape[0], 2, 3))
+    Hv[:, :, :2] = -Hm
+    Hv[:, 1, 2] = -1.0
+    return Hv, Hm
+
+
+def _innovation(z, zhat):
+    y = z - zhat
+    y[..., 1] = _wrap(y[..., 1])
+    return y
+
+
+def _PHt(P, idx, Hv, Hm):
+    """``P Hᵀ`` (N, 2k) using only the non-zero columns of H: O(N k)."""
+    k = idx.size
+    cols = 3 + 2 * idx
+    Pm = P[:, np.stack([cols, cols + 1], axis=1).reshape(-1)].reshape(-1, k, 2)
+    PHt = np.einsum("na,kba->nkb", P[:, :3], Hv) + np.einsum("nka,kba->nkb", Pm, Hm)
+    return PHt.reshape(-1, 2 * k)
+
+
+def _HPHt(PHt, idx, Hv, Hm):
+    """``H (P Hᵀ)`` (2k, 2k) from the rows of ``P Hᵀ`` at the non-zero columns of H."""
+    k = idx.size
+    cols = 3 + 2 * idx
+    A = PHt[:3, :]
+    B = PHt[np.stack([cols, cols + 1], axis=1).reshape(-1), :].reshape(k, 2, -1)
+    return (np.einsum("kba,am->kbm", Hv, A) + np.einsum("kba,kam->kbm", Hm, B)).reshape(2 * k, -1)
+
+
+def _subtract_outer(P: np.ndarray, W1: np.ndarray) -> None:
+    """``P -= W1 W1ᵀ`` in place, one pass over P (BLAS dgemm on the transposed view)."""
+    if P.flags.c_contiguous and P.dtype == np.float64 and P.shape[0] > 64:
+        # P is symmetric, so updating Pᵀ (its Fortran-ordered view) updates P.
+        _blas.dgemm(-1.0, W1, W1, beta=1.0, c=P.T, trans_b=1, overwrite_c=1)
+    else:
+        P -= W1 @ W1.T
+
+
+def update(
+    x,
+    P,
+    z,
+    R,
+    idx,
+    *,
+    x_lin=None,
+    batch: bool = True,
+    joseph: bool = False,
+    inplace: bool = False,
+):
+    """Update with range-bearing observations of known landmarks (eqs. 5.28–5.39).
+
+    Parameters
+    ----------
+    x, P : state and covariance.
+    z : (k, 2) observations ``[range m, bearing rad]`` in the body frame.
+    R : (2, 2) or (k, 2, 2) observation covariance(s).
+    idx : (k,) int, landmark index (0-based, landmark i is ``x[3+2i:5+2i]``) of each z.
+    x_lin : optional state-sized linearization point for ``H`` (innovations always use x).
+    batch : one stacked update for all k (``S`` is 2k × 2k) or k sequential updates
+        (identical for a linear model; differ by re-linearization in the EKF).
+    joseph : Joseph form ``(I - K H) P (I - K H)ᵀ + K R Kᵀ`` expanded in O(n² k); otherwise
+        ``P - W1 W1ᵀ`` with ``W1 = P Hᵀ L⁻ᵀ``, ``S = L Lᵀ`` (symmetric by construction).
+
+    Returns ``(x, P)``.
+    """
+    x = np.asarray(x, dtype=float)
+    P = np.asarray(P, dtype=float)
+    if not inplace:
+        x = x.copy()
+        P = P.copy()
+    z = np.asarray(z, dtype=float).reshape(-1, 2)
+    idx = np.asarray(idx, dtype=np.intp).reshape(-1)
+    R = np.asarray(R, dtype=float)
+    if R.shape == (2, 2):
+        R = np.broadcast_to(R, (idx.size, 2, 2))
+    if idx.size == 0:
+        return x, P
+    if batch:
+        _update_block(x, P, z, R, idx, x_lin, joseph)
+    else:
+        for j in range(idx.size):
+            _update_block(x, P, z[j : j + 1], R[j : j + 1], idx[j : j + 1], x_lin, joseph)
+    return x, P
+
+
+def _update_block(x, P, z, R, idx, x_lin, joseph) -> None:
+    k = idx.size
+    zhat, Hv, Hm = observe(x, idx, x_lin=x_lin)
+    y = _innovation(z, zhat).reshape(-1)
+    PHt = _PHt(P, idx, Hv, Hm)
+    Rb = np.zeros((2 * k, 2 * k))
+    for j in range(k):  # k observations of one scan, not landmarks
+        Rb[2 * j : 2 * j + 2, 2 * j : 2 * j + 2] = R[j]
+    HPHt = _HPHt(PHt, idx, Hv, Hm)
+    S = HPHt + Rb
+    S = 0.5 * (S + S.T)
+    L = np.linalg.cholesky(S)
+    # W1 = P Hᵀ L⁻ᵀ, K = W1 L⁻¹ (gain, thesis's W); x += K y = W1 (L⁻¹ y)
+    W1 = solve_triangular(L, PHt.T, lower=True, check_finite=False).T
+    x += W1 @ solve_triangular(L, y, lower=True, check_finite=False)
+    x[2] = _wrap_f(float(x[2]))
+    if joseph:
+        # (I-KH)P(I-KH)ᵀ + KRKᵀ = P - K(HP) - (PHᵀ)Kᵀ + K(HPHᵀ + R)Kᵀ, all O(n² k)
+        K = solve_triangular(L, W1.T, lower=True, trans="T", check_finite=False).T
+        KHP = K @ PHt.T
+        P -= KHP
+        P -= KHP.T
+        P += K @ S @ K.T
+        P[...] = 0.5 * (P + P.T)
+    else:
+        _subtract_outer(P, W1)
+
+
+def augment(x, P, z, R):
+    """Add new landmarks from observations ``z`` (k, 2) (eqs. 5.40–5.47).
+
+    ``g = [x_v + r cos(theta + phi), y_v + r sin(theta + phi)]``; ``P`` grows by 2k rows and
+    columns, of which only the new blocks are computed (``G_x P_v*`` and
+    ``G_x P_v G_xᵀ + G_z R G_zᵀ``): O(n k) arithmetic (plus the copy into the larger array).
+    Several landmarks from one pose are correlated through ``P_v``, exactly as adding them
+    one at a time would make them.
+    """
+    x = np.asarray(x, dtype=float)
+    P = np.asarray(P, dtype=float)
+    z = np.asarray(z, dtype=float).reshape(-1, 2)
+    R = np.asarray(R, dtype=float)
+    k = z.shape[0]
+    if R.shape == (2, 2):
+        R = np.broadcast_to(R, (k, 2, 2))
+    if k == 0:
+        return x.copy(), P.copy()
+    N = x.size
+    a = x[2] + z[:, 1]
+    c, s = np.cos(a), np.sin(a)
+    r = z[:, 0]
+    g = np.stack([x[0] + r * c, x[1] + r * s], axis=1)
+    Gx = np.zeros((k, 2, 3))
+    Gx[:, 0, 0] = 1.0
+    Gx[:, 1, 1] = 1.0
+    Gx[:, 0, 2] = -r * s
+    Gx[:, 1, 2] = r * c
+    Gz = np.empty((k, 2, 2))
+    Gz[:, 0, 0] = c
+    Gz[:, 0, 1] = -r * s
+    Gz[:, 1, 0] = s
+    Gz[:, 1, 1] = r * c
+    Gx2 = Gx.reshape(2 * k, 3)
+    xa = np.concatenate([x, g.reshape(-1)])
+    Pa = np.empty((N + 2 * k, N + 2 * k))
+    Pa[:N, :N] = P
+    cross = Gx2 @ P[:3, :]  # (2k, N): new-to-old
+    Pa[N:, :N] = cross
+    Pa[:N, N:] = cross.T
+    Pnn = cross[:, :3] @ Gx2.T
+    blocks = Gz @ R @ np.swapaxes(Gz, 1, 2)
+    for j in range(k):  # k new observations of one scan
+        Pnn[2 * j : 2 * j + 2, 2 * j : 2 * j + 2] += blocks[j]
+    Pa[N:, N:] = 0.5 * (Pnn + Pnn.T)
+    return xa, Pa
+
+
+def remove_landmarks(x, P, idx):
+    """State reduction: delete landmarks ``idx`` (rows/columns of ``x`` and ``P``).
+
+    Marginalizing a Gaussian is deleting its rows and columns, so the rest is unchanged.
+    """
+    x = np.asarray(x, dtype=float)
+    P = np.asarray(P, dtype=float)
+    idx = np.asarray(idx, dtype=np.intp).reshape(-1)
+    keep = np.ones(x.size, dtype=bool)
+    keep[3 + 2 * idx] = False
+    keep[4 + 2 * idx] = False
+    return x[keep], P[np.ix_(keep, keep)]
+
+
+def association_scores(x, P, z, R, *, x_lin=None):
+    """Normalized innovation squared and ML distance of every observation to every landmark.
+
+    Returns ``nis (k, n)`` = ``yᵀ S⁻¹ y`` and ``nd (k, n)`` = ``nis + ln det S`` (Bailey's
+    "normalised distance", the negative log-likelihood up to constants), vectorized: S of
+    all landmarks comes from the 5×5 vehicle-landmark blocks of P in one batched product.
+    """
+    x = np.asarray(x, dtype=float)
+    P = np.asarray(P, dtype=float)
+    z = np.asarray(z, dtype=float).reshape(-1, 2)
+    k = z.shape[0]
+    n = (x.size - 3) // 2
+    R = np.asarray(R, dtype=float)
+    if R.shape == (2, 2):
+        R = np.broadcast_to(R, (k, 2, 2))
+    if n == 0 or k == 0:
+        return np.empty((k, n)), np.empty((k, n))
+    ar = np.arange(n)
+    zhat, Hv, Hm = observe(x, ar, x_lin=x_lin)
+    # S_i = Hv Pvv Hvᵀ + Hv Pvi Hmᵀ + (..)ᵀ + Hm Pii Hmᵀ
+    Pvv = P[:3, :3]
+    Pvi = P[:3, 3:].reshape(3, n, 2).transpose(1, 0, 2)  # (n, 3, 2)
+    Pii = P[3:, 3:].reshape(n, 2, n, 2)[ar, :, ar, :]  # (n, 2, 2)
+    HmT = np.swapaxes(Hm, 1, 2)
+    C = Hv @ Pvi @ HmT
+    S0 = Hv @ Pvv @ np.swapaxes(Hv, 1, 2) + C + np.swapaxes(C, 1, 2) + Hm @ Pii @ HmT
+    S = S0[None, :, :, :] + R[:, None, :, :]  # (k, n, 2, 2)
+    y = z[:, None, :] - zhat[None, :, :]
+    y[..., 1] = _wrap(y[..., 1])
+    a, b, d = S[..., 0, 0], 0.5 * (S[..., 0, 1] + S[..., 1, 0]), S[..., 1, 1]
+    det = a * d - b * b
+    nis = (d * y[..., 0] ** 2 - 2.0 * b * y[..., 0] * y[..., 1] + a * y[..., 1] ** 2) / det
+    return nis, nis + np.log(det)
+
+
+def associate(
+    x,
+    P,
+    z,
+    R,
+    *,
+    reject_gate: float = 4.0,
+    augment_gate: float = 25.0,
+    method: str = "ml",
+    exclusive: bool = True,
+    x_lin=None,
+):
+    """Gated data association (Bailey's ``data_associate``, vectorized).
+
+    For each observation: among landmarks with NIS < ``reject_gate`` pick the one with the
+    smallest ML distance ``nis + ln det S`` (``method="ml"``) or smallest NIS (``"nn"``);
+    if none is inside the reject gate and every NIS exceeds ``augment_gate`` the observation
+    is a new landmark; otherwise (between the gates: ambiguous) it is rejected. With
+    ``exclusive`` (beyond Bailey, who lets two observations of a scan update one landmark),
+    a landmark claimed by several observations keeps only the best; the others are rejected.
+
+    Returns ``(idx (k,) int landmark index or -1, new (k,) bool, nis (k,) float)``.
+    """
+    if method not in ("ml", "nn"):
+        raise ValueError(f"method must be 'ml' or 'nn', got {method!r}")
+    nis, nd = association_scores(x, P, z, R, x_lin=x_lin)
+    k, n = nis.shape
+    idx = np.full(k, -1, dtype=np.intp)
+    best_nis = np.full(k, np.nan)
+    if n == 0:
+        return idx, np.ones(k, dtype=bool), best_nis
+    inside = nis < reject_gate
+    score = np.where(inside, nd if method == "ml" else nis, np.inf)
+    j = np.argmin(score, axis=1)
+    rows = np.arange(k)
+    ok = inside[rows, j]
+    idx[ok] = j[ok]
+    best_nis[ok] = nis[rows[ok], j[ok]]
+    new = ~ok & (nis.min(axis=1) > augment_gate)
+    if exclusive and np.count_nonzero(ok) > 1:
+        sel = rows[ok]
+        order = np.lexsort((score[sel, j[sel]], j[sel]))
+        sel = sel[order]
+        dup = np.zeros(sel.size, dtype=bool)
+        dup[1:] = j[sel][1:] == j[sel][:-1]
+        idx[sel[dup]] = -1
+        best_nis[sel[dup]] = np.nan
+    return idx, new, best_nis
+
+
+# --------------------------------------------------------------------------- the class
+
+
+@dataclass(frozen=True)
+class AEKFConfig:
+    """AEKF-SLAM options.
+
+    reject_gate, augment_gate : Mahalanobis (NIS) gates of the association (Bailey's
+        GATE_REJECT 4.0 and GATE_AUGMENT 25.0, which the reference used).
+    association : "ml" (maximum likelihood, nis + ln det S), "nn" (nearest neighbour,
+        NIS), or "known" (observation labels give the landmark identity).
+    exclusive : at most one observation per landmark per scan.
+    batch : batch update of all observations of a scan (Bailey's default) or sequential.
+    joseph : Joseph-form covariance update instead of ``P - W1 W1ᵀ``.
+    jacobians : "standard" EKF, or "fej" first-estimates Jacobians (consistency).
+    max_range_m, fov_half_angle_rad : the sensor footprint used by state reduction.
+    max_misses : state reduction: a landmark predicted well inside the footprint
+        (``reduction_margin_m`` inside its range edge and 10° inside its angle edge) on
+        this many consecutive scans without an association is removed. None disables.
+    """
+
+    reject_gate: float = 4.0
+    augment_gate: float = 25.0
+    association: str = "ml"
+    exclusive: bool = True
+    batch: bool = True
+    joseph: bool = False
+    jacobians: str = "standard"
+    max_range_m: float = 30.0
+    fov_half_angle_rad: float = math.pi / 2
+    max_misses: int | None = None
+    reduction_margin_m: float = 3.0
+
+    def __post_init__(self) -> None:
+        if not (self.reject_gate > 0 and math.isfinite(self.reject_gate)):
+            raise ValueError(f"reject_gate must be > 0, got {self.reject_gate}")
+        if not (self.augment_gate >= self.reject_gate and math.isfinite(self.augment_gate)):
+            raise ValueError(
+                f"augment_gate must be finite and >= reject_gate ({self.reject_gate}), "
+                f"got {self.augment_gate}"
+            )
+        if self.association not in ("ml", "nn", "known"):
+            raise ValueError(
+                f"association must be 'ml', 'nn' or 'known', got {self.association!r}"
+            )
+        if self.jacobians not in ("standard", "fej"):
+            raise ValueError(f"jacobians must be 'standard' or 'fej', got {self.jacobians!r}")
+        if self.max_misses is not None and self.max_misses < 1:
+            raise ValueError(f"max_misses must be >= 1 or None, got {self.max_misses}")
+        if not self.max_range_m > 0:
+            raise ValueError(f"max_range_m must be > 0, got {self.max_range_m}")
+
+
+class AEKFSlam:
+    """AEKF-SLAM behind :class:`slam.estimators.base.SlamEstimator` (thin wrapper of the
+    pure functions; a test checks they agree).
+
+    The filter starts at ``x0`` (default the origin) with covariance ``P0`` (default zero:
+    the world frame is the initial pose, thesis §5.6.1). A rejected input raises
+    ``ValueError`` before anything is changed.
+    """
+
+    name = "aekf"
+
+    def __init__(self, config: AEKFConfig | None = None, *, x0=None, P0=None, **params):
+        if config is None:
+            config = AEKFConfig(**params)
+        elif params:
+            raise ValueError(f"pass either config or keyword parameters, got both: {sorted(params)}")
+        self.config = config
+        x0 = np.zeros(3) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
+        P0 = np.zeros((3, 3)) if P0 is None else np.asarray(P0, dtype=float)
+        if x0.shape != (3,):
+            raise ValueError(f"x0 must have shape (3,), got {x0.shape}")
+        if P0.shape != (3, 3):
+            raise ValueError(f"P0 must have shape (3, 3), got {P0.shape}")
+        _check_state(x0, P0, psd=True)
+        self.x = x0.copy()
+        self.x[2] = _wrap_f(float(self.x[2]))
+        self.P = 0.5 * (P0 + P0.T)
+        self._pose_prior = self.x[:3].copy()  # previous predicted pose (FEJ)
+        self._lm_first = np.empty((0, 2))  # first estimates (FEJ)
+        self.labels = np.empty(0, dtype=np.int64)  # label of the creating observation, -1 none
+        self.ids = np.empty(0, dtype=np.int64)  # persistent landmark ids (0, 1, ... created)
+        self.misses = np.empty(0, dtype=np.int64)
+        self.hits = np.empty(0, dtype=np.int64)
+        self._next_id = 0
+        self.n_removed = 0
+
+    # ---- SlamEstimator
+    def predict(self, odometry: Odometry) -> None:
+        self.predict_arrays(odometry.delta, odometry.cov)
+
+    def predict_arrays(self, u, Q) -> None:
+        """Predict from ``u`` (3,) body-frame increment with covariance ``Q`` (3, 3)."""
+        u, Q = _as_odometry(u, Q)
+        x_lin = self._pose_prior if self.config.jacobians == "fej" else None
+        predict(self.x, self.P, u, Q, x_lin=x_lin, inplace=True)
+        self._pose_prior = self.x[:3].copy()
+
+    def update(self, observations: Sequence[RangeBearing]) -> UpdateResult:
+        k = len(observations)
+        z = np.empty((k, 2))
+        R = np.empty((k, 2, 2))
+        labels = np.full(k, -1, dtype=np.int64)
+        has_label = np.zeros(k, dtype=bool)
+        for j, ob in enumerate(observations):  # unpack the k observation objects of a scan
+            z[j] = ob.z
+            R[j] = ob.R
+            if ob.label is not None:
+                labels[j] = ob.label
+                has_label[j] = True
+        return self.update_arrays(z, R, labels if has_label.all() else None)
+
+    def update_arrays(self, z, R, labels=None) -> UpdateResult:
+        """Associate, update and augment with one scan: ``z`` (k, 2), ``R`` (2, 2) or
+        (k, 2, 2), ``labels`` (k,) int or None (needed for ``association="known"``)."""
+        z, R = _as_observations(z, R)
+        k = z.shape[0]
+        cfg = self.config
+        if labels is not None:
+            labels = np.asarray(labels, dtype=np.int64).reshape(-1)
+            if labels.shape != (k,):
+                raise ValueError(f"labels must have shape ({k},), got {labels.shape}")
+        if cfg.association == "known" and labels is None:
+            raise ValueError("association='known' needs a label on every observation")
+        n = self.n_landmarks
+        x_lin = self._x_lin()
+        if k == 0:
+            self._reduce(np.zeros(0, dtype=np.intp))
+            return UpdateResult(np.zeros(0, np.intp), np.zeros(0, bool), np.zeros(0))
+        if cfg.association == "known":
+            idx, new = self._associate_known(labels)
+            nis = np.full(k, np.nan)
+            if np.any(idx >= 0):
+                m = idx >= 0
+                s, _ = association_scores(self.x, self.P, z[m], R[m], x_lin=x_lin)
+                nis[m] = s[np.arange(m.sum()), idx[m]]
+        else:
+            idx, new, nis = associate(
+                self.x,
+                self.P,
+                z,
+                R,
+                reject_gate=cfg.reject_gate,
+                augment_gate=cfg.augment_gate,
+                method=cfg.association,
+                exclusive=cfg.exclusive,
+                x_lin=x_lin,
+            )
+        known = idx >= 0
+        if np.any(known):
+            update(
+                self.x,
+                self.P,
+                z[known],
+                R[known],
+                idx[known],
+                x_lin=x_lin,
+                batch=cfg.batch,
+                joseph=cfg.joseph,
+                inplace=True,
+            )
+        assoc = idx.copy()
+        if np.any(new):
+            m = int(new.sum())
+            self.x, self.P = augment(self.x, self.P, z[new], R[new])
+            self._lm_first = np.concatenate([self._lm_first, self.x[3 + 2 * n :].reshape(m, 2)])
+            lab = labels[new] if labels is not None else np.full(m, -1, np.int64)
+            self.labels = np.concatenate([self.labels, lab])
+            self.ids = np.concatenate([self.ids, self._next_id + np.arange(m)])
+            self._next_id += m
+            self.misses = np.concatenate([self.misses, np.zeros(m, np.int64)])
+            self.hits = np.concatenate([self.hits, np.ones(m, np.int64)])
+            assoc[new] = n + np.arange(m)
+        if np.any(known):
+            self.hits[idx[known]] += 1
+        assoc = self._reduce(assoc)
+        return UpdateResult(assoc, new, nis)
+
+    def pose(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.x[:3].copy(), self.P[:3, :3].copy()
+
+    def landmarks(self) -> tuple[np.ndarray, np.ndarray]:
+        n = self.n_landmarks
+        ar = np.arange(n)
+        cov = self.P[3:, 3:].reshape(n, 2, n, 2)[ar, :, ar, :].copy()
+        return self.x[3:].reshape(n, 2).copy(), cov
+
+    # ---- extras
+    @property
+    def n_landmarks(self) -> int:
+        return (self.x.size - 3) // 2
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of the full state ``(x, P)``."""
+        return self.x.copy(), self.P.copy()
+
+    def _x_lin(self):
+        if self.config.jacobians != "fej":
+            return None
+        return np.concatenate([self.x[:3], self._lm_first.reshape(-1)])
+
+    def _associate_known(self, labels):
+        k = labels.size
+        idx = np.full(k, -1, dtype=np.intp)
+        if self.labels.size:
+            order = np.argsort(self.labels, kind="stable")
+            sl = self.labels[order]
+            pos = np.searchsorted(sl, labels)
+            pos_c = np.minimum(pos, sl.size - 1)
+            hit = sl[pos_c] == labels
+            idx[hit] = order[pos_c[hit]]
+        new = idx < 0
+        # two observations with one new label in one scan: only the first creates it
+        if np.any(new):
+            _, first = np.unique(labels[new], return_index=True)
+            keep = np.zeros(int(new.sum()), dtype=bool)
+            keep[first] = True
+            nw = np.flatnonzero(new)
+            new[nw[~keep]] = False
+        return idx, new
+
+    def _reduce(self, assoc: np.ndarray) -> np.ndarray:
+        """Count misses of landmarks predicted inside the footprint; remove persistent ones."""
+        cfg = self.config
+        n = self.n_landmarks
+        if cfg.max_misses is None or n == 0:
+            return assoc
+        lm = self.x[3:].reshape(n, 2)
+        d = lm - self.x[:2]
+        r = np.hypot(d[:, 0], d[:, 1])
+        b = np.abs(_wrap(np.arctan2(d[:, 1], d[:, 0]) - self.x[2]))
+        inside = (r < cfg.max_range_m - cfg.reduction_margin_m) & (
+            b < cfg.fov_half_angle_rad - math.radians(10.0)
+        )
+        seen = np.zeros(n, dtype=bool)
+        seen[assoc[assoc >= 0]] = True
+        self.misses[seen] = 0
+        miss = inside & ~seen
+        self.misses[miss] += 1
+        drop = self.misses >= cfg.max_misses
+        if not np.any(drop):
+            return assoc
+        dropped = np.flatnonzero(drop)
+        self.x, self.P = remove_landmarks(self.x, self.P, dropped)
+        keep = ~drop
+        for name in ("_lm_first", "labels", "ids", "misses", "hits"):
+            setattr(self, name, getattr(self, name)[keep])
+        self.n_removed += dropped.size
+        new_index = np.cumsum(keep) - 1
+        out = assoc.copy()
+        m = out >= 0
+        out[m] = np.where(keep[out[m]], new_index[out[m]], -1)
+        return out
