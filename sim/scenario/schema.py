@@ -27,11 +27,11 @@ SIDESCAN_PRESETS = ("deepeye340d", "deepeye680d", "klein3500")
 SEABED_KINDS = ("flat", "ripples", "slope", "rocks", "grid")
 OBJECT_CLASSES = ("shipwreck", "rock", "branch", "mannequin", "pipe", "tyre", "sensor_node")
 MISSION_TYPES = ("lawnmower", "loop", "line", "waypoints", "hold")
-FRONTEND_METHODS = ("improved_otsu", "otsu", "adaptive", "iterative", "max_entropy", "none")
-FRONTEND_PRESETS = ("auto", "sss_high", "sss_low", "fls")
+FRONTEND_METHODS = ("improved-otsu", "otsu", "local", "isodata", "kapur", "none")
+FRONTEND_PRESETS = ("auto", "high-res-sss", "low-res-sss", "fls", "sdvd")
 ESTIMATORS = ("aekf", "fastslam2", "isam2", "none")
 NAV_SENSORS = ("imu", "dvl", "depth", "ahrs", "gps")
-TIMING_MODES = ("clone", "delayed")
+TIMING_MODES = ("lagged", "naive")
 
 
 class ScenarioError(ValueError):
@@ -141,7 +141,7 @@ class NavSpec:
 
 @dataclass(frozen=True)
 class FrontendSpec:
-    method: str = "improved_otsu"
+    method: str = "improved-otsu"
     preset: str = "auto"
     window_pings: int = 200
     hop_pings: int = 100
@@ -151,12 +151,13 @@ class FrontendSpec:
 @dataclass(frozen=True)
 class SlamSpec:
     """estimator: name for slam.estimators.make_estimator; params passed through.
-    timing: 'clone' ties a delayed side-scan observation to the pose at its ping (see
-    sim.runner); 'delayed' applies it at detection time (for comparison)."""
+    timing: 'lagged' feeds each delayed side-scan observation to SLAM at the pose of its
+    ping (the filter runs one window behind, see sim.runner.lagged); 'naive' applies it
+    at detection time as if seen from the current pose (for comparison)."""
 
     estimator: str = "aekf"
     params: Mapping[str, Any] = field(default_factory=dict)
-    timing: str = "clone"
+    timing: str = "lagged"
     association_gate_m: float = 3.0
 
 
@@ -613,36 +614,42 @@ def builtin_scenarios() -> dict[str, Path]:
 
 
 def set_dotted(data: dict, key: str, value: Any) -> dict:
-    """Return a deep copy of ``data`` with ``a.b[0].c = value`` applied (for sweeps).
+    """Return a deep copy of ``data`` with one field set, for sweeps and overrides.
 
-    The result still goes through :func:`parse_scenario`, so bad overrides fail there with
-    the usual message."""
+    Keys are dotted paths; list items by ``[i]`` or ``.i``: ``slam.estimator`` (the default
+    every vehicle inherits), ``vehicles[0].slam.estimator`` = ``vehicles.0.slam.estimator``.
+    The result still goes through :func:`parse_scenario`, so bad values fail there with the
+    usual message."""
     import copy
     import re
 
-    out = copy.deepcopy(data)
-    parts = re.findall(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?", key)
-    if not parts or ".".join(p[0] + (f"[{p[1]}]" if p[1] else "") for p in parts) != key:
+    if not re.fullmatch(r"[A-Za-z_]\w*(\[\d+\])?(\.(\d+|[A-Za-z_]\w*(\[\d+\])?))*", key):
         raise ScenarioError(
             f"override key {key!r}: allowed: dotted field names like 'vehicles[0].slam.estimator'"
         )
+    tokens: list[str | int] = []
+    for part in key.split("."):
+        m = re.fullmatch(r"(\w+?)(?:\[(\d+)\])?", part)
+        assert m is not None
+        tokens.append(int(m.group(1)) if m.group(1).isdigit() else m.group(1))
+        if m.group(2) is not None:
+            tokens.append(int(m.group(2)))
+    out = copy.deepcopy(data)
     cur: Any = out
-    for j, (name, idx) in enumerate(parts):
-        last = j == len(parts) - 1
-        if not isinstance(cur, dict):
-            raise ScenarioError(f"override key {key!r}: {name!r} is not inside a table")
-        if idx:
-            lst = cur.get(name)
-            if not isinstance(lst, list) or int(idx) >= len(lst):
-                raise ScenarioError(f"override key {key!r}: {name}[{idx}] does not exist")
-            if last:
-                lst[int(idx)] = value
-            else:
-                cur = lst[int(idx)]
-        elif last:
-            cur[name] = value
+    for j, tok in enumerate(tokens):
+        last = j == len(tokens) - 1
+        if isinstance(tok, int):
+            if not isinstance(cur, list) or tok >= len(cur):
+                raise ScenarioError(f"override key {key!r}: item {tok} does not exist")
+        elif not isinstance(cur, dict):
+            raise ScenarioError(f"override key {key!r}: {tok!r} is not inside a table")
+        if last:
+            cur[tok] = value
+        elif isinstance(tok, int):
+            cur = cur[tok]
         else:
-            cur = cur.setdefault(name, {})
+            nxt = tokens[j + 1]
+            cur = cur.setdefault(tok, [] if isinstance(nxt, int) else {})
     return out
 
 

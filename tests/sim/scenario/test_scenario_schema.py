@@ -118,7 +118,7 @@ def test_vehicle_slam_overrides_top_level_defaults(base):
     base["vehicles"][0]["slam"] = {"estimator": "fastslam2", "params": {"n_particles": 50}}
     s = parse_scenario(base)
     assert s.vehicles[0].slam.estimator == "fastslam2"
-    assert s.vehicles[0].slam.timing == "clone"  # inherited from [slam]
+    assert s.vehicles[0].slam.timing == "lagged"  # inherited from [slam]
     assert s.vehicles[0].slam.params["n_particles"] == 50
 
 
@@ -177,3 +177,12 @@ def test_nav_sensor_preset_and_override_checked(base):
     from sim.navigation import IMUConfig
 
     assert cfg.imu == IMUConfig.preset("tactical")
+
+
+def test_set_dotted_numeric_index_form(base):
+    """'vehicles.0.x' and 'vehicles[0].x' address the same field."""
+    a = set_dotted(base, "vehicles.0.mission.speed_mps", 1.0)
+    b = set_dotted(base, "vehicles[0].mission.speed_mps", 1.0)
+    assert a == b and parse_scenario(a).vehicles[0].mission.speed_mps == 1.0
+    with pytest.raises(ScenarioError, match="allowed"):
+        set_dotted(base, "vehicles..x", 1)
