@@ -92,6 +92,7 @@ class DeadReckoningConfig:
     gyro_bias_std      : initial gyro-bias std, rad/s (IMUConfig.gyro_bias_init_std).
     gyro_bias_rw       : gyro-bias random walk, rad/s²/√Hz.
     coast_velocity_std : growth of velocity error without DVL lock, m/s/√s.
+    initial_velocity_std : std of the (zero) velocity assumed before the first lock, m/s.
     gyro_bias_estimate : bias subtracted from the z gyro, rad/s (a calibration value).
     """
 
@@ -100,6 +101,7 @@ class DeadReckoningConfig:
     gyro_bias_std: float = 0.0
     gyro_bias_rw: float = 0.0
     coast_velocity_std: float = 0.05
+    initial_velocity_std: float = 1.0
     gyro_bias_estimate: float = 0.0
 
     def __post_init__(self) -> None:
@@ -109,6 +111,7 @@ class DeadReckoningConfig:
             "gyro_bias_std",
             "gyro_bias_rw",
             "coast_velocity_std",
+            "initial_velocity_std",
         ):
             v = getattr(self, n)
             if not (math.isfinite(v) and v >= 0):
@@ -120,7 +123,11 @@ class DeadReckoningConfig:
 
     @classmethod
     def from_sensors(
-        cls, dvl: DVLConfig, imu: IMUConfig, coast_velocity_std: float = 0.05
+        cls,
+        dvl: DVLConfig,
+        imu: IMUConfig,
+        coast_velocity_std: float = 0.05,
+        initial_velocity_std: float = 1.0,
     ) -> DeadReckoningConfig:
         """The noise the configured DVL and IMU actually produce."""
         return cls(
@@ -129,6 +136,7 @@ class DeadReckoningConfig:
             gyro_bias_std=imu.gyro_bias_init_std,
             gyro_bias_rw=imu.gyro_bias_rw,
             coast_velocity_std=coast_velocity_std,
+            initial_velocity_std=initial_velocity_std,
         )
 
 
@@ -150,19 +158,34 @@ class DeadReckoner:
     up to ``t`` and returns the interval since the previous cut.
     """
 
-    def __init__(self, config: DeadReckoningConfig, t0: float = 0.0) -> None:
+    def __init__(
+        self,
+        config: DeadReckoningConfig,
+        t0: float = 0.0,
+        initial_velocity_body: np.ndarray | None = None,
+    ) -> None:
+        """``initial_velocity_body`` (3,) m/s: velocity held until the first DVL lock
+        (default zero: a vehicle starting at rest), with ``config.initial_velocity_std``."""
         self.config = config
         self.t = float(t0)
         self.t_start = float(t0)
         self.p = np.zeros(2)
         self.phi = 0.0
-        self.v = np.zeros(3)  # held DVL body velocity
+        # held DVL body velocity
+        self.v = (
+            np.zeros(3)
+            if initial_velocity_body is None
+            else np.asarray(initial_velocity_body, float).reshape(3)
+        )
+        if not np.all(np.isfinite(self.v)):
+            raise ValueError(f"initial_velocity_body must be finite, got {self.v}")
         self.w = 0.0  # held gyro z rate
         self.roll = 0.0
         self.pitch = 0.0
         self.coasting = True  # no DVL lock yet
         self.P = np.zeros((_N, _N))
         self.P[_B, _B] = config.gyro_bias_std**2
+        self.P[_NV, _NV] = np.eye(3) * config.initial_velocity_std**2
         self.n_dvl = 0
         self.n_dvl_dropped = 0
 

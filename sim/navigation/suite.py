@@ -33,7 +33,8 @@ __all__ = ["NavReadings", "NavSuite", "NavSuiteConfig"]
 @dataclass(frozen=True)
 class NavSuiteConfig:
     """Sensor configs of one vehicle (defaults: consumer IMU, 600 kHz DVL, Keller-class
-    depth, MEMS AHRS, standalone GPS) and the dead reckoner's coast noise, m/s/√s."""
+    depth, MEMS AHRS, standalone GPS) and the dead reckoner's coast noise, m/s/√s, and
+    prior std of the initial velocity, m/s."""
 
     imu: IMUConfig = field(default_factory=lambda: IMUConfig.preset("consumer"))
     dvl: DVLConfig = field(default_factory=lambda: DVLConfig.preset("rdi600"))
@@ -41,6 +42,7 @@ class NavSuiteConfig:
     ahrs: AHRSConfig = field(default_factory=lambda: AHRSConfig.preset("mems_ahrs"))
     gps: GPSConfig = field(default_factory=lambda: GPSConfig.preset("standalone"))
     coast_velocity_std: float = 0.05
+    initial_velocity_std: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -58,7 +60,13 @@ class NavSuite:
     """Owns the sensors (each with its own child Generator spawned from ``rng``) and a
     :class:`DeadReckoner` fed with the IMU, DVL and AHRS measurements."""
 
-    def __init__(self, config: NavSuiteConfig, rng: np.random.Generator, t0: float = 0.0) -> None:
+    def __init__(
+        self,
+        config: NavSuiteConfig,
+        rng: np.random.Generator,
+        t0: float = 0.0,
+        initial_velocity_body: np.ndarray | None = None,
+    ) -> None:
         if not isinstance(rng, np.random.Generator):
             raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
         r = rng.spawn(5)
@@ -70,9 +78,13 @@ class NavSuite:
         self.gps = GPS(config.gps, r[4])
         self.dead_reckoner = DeadReckoner(
             DeadReckoningConfig.from_sensors(
-                config.dvl, config.imu, coast_velocity_std=config.coast_velocity_std
+                config.dvl,
+                config.imu,
+                coast_velocity_std=config.coast_velocity_std,
+                initial_velocity_std=config.initial_velocity_std,
             ),
             t0=t0,
+            initial_velocity_body=initial_velocity_body,
         )
 
     def poll(self, state: VehicleState) -> NavReadings:
