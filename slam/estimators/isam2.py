@@ -1,0 +1,400 @@
+"""Graph-SLAM baseline: incremental smoothing and mapping (iSAM2, Kaess et al. 2012) via GTSAM.
+
+The reference thesis names graph-based SLAM as future work; this is that comparison. It
+needs the optional extra ``undersea[baselines]`` (``pip install 'undersea[baselines]'``,
+which installs ``gtsam``).
+
+Graph: pose nodes ``x0, x1, …`` (``gtsam.Pose2``, world frame ``[x m, y m, phi rad]``) and
+landmark nodes ``l0, l1, …`` (``gtsam.Point2``, m). A prior factor fixes ``x0`` (``x0``,
+``P0``). Odometry increments between two nodes are composed with the thesis's motion model
+(eq. 5.21, which is exactly ``Pose2.compose``) and their covariance is propagated to first
+order; a ``BetweenFactorPose2`` joins consecutive nodes. By default a pose node is created
+at each ``update`` that carries observations (a key frame per observation scan, the usual
+practice: the odometry between scans is a single composed factor). With
+``node_every_predict=True`` every ``predict`` creates a node, as a per-odometry graph.
+(GTSAM measures the odometry residual in the Pose2 tangent space; for the small increments
+here it equals ``[dx, dy, dphi]`` to first order.)
+
+Each observation becomes a ``BearingRangeFactor2D`` (GTSAM orders the measurement as
+``[bearing, range]``, so ``R`` is permuted). Data association is the same gated scheme as
+the filters: known ``label`` when given, otherwise maximum likelihood among landmarks
+whose normalized innovation squared is below ``reject_gate``, a new landmark above
+``augment_gate``, discarded between them. The NIS uses the marginal covariances from
+iSAM2: ``S = Hv Pv Hv^T + Hf Pf Hf^T + R``, with the pose-landmark cross-covariance
+neglected (a joint marginal per candidate would cost far more). Landmark marginals are
+cached, refreshed for the landmarks just observed after every update and for all of them
+every ``marginal_refresh_every`` updates and whenever :meth:`landmarks` is called.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from slam.estimators.base import UpdateResult
+from slam.estimators.fastslam2 import _inv2, _sym, _wrap, observation_model, validate_covariance
+from slam.types import Odometry, RangeBearing
+
+__all__ = ["ISAM2SLAM"]
+
+_LOG_2PI = float(np.log(2.0 * np.pi))
+
+
+def _import_gtsam():
+    try:
+        import gtsam
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "the 'isam2' estimator needs GTSAM, which is the optional extra "
+            "undersea[baselines]: pip install 'undersea[baselines]' (or pip install gtsam)"
+        ) from exc
+    return gtsam
+
+
+def _compose_jacobians(phi: float, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians of ``p ⊕ d`` (thesis eq. 5.21) with respect to ``p`` and ``d``."""
+    c, s = np.cos(phi), np.sin(phi)
+    Gv = np.array([[1.0, 0.0, -d[0] * s - d[1] * c], [0.0, 1.0, d[0] * c - d[1] * s], [0, 0, 1]])
+    Gu = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return Gv, Gu
+
+
+def _compose(p: np.ndarray, d: np.ndarray) -> np.ndarray:
+    c, s = np.cos(p[2]), np.sin(p[2])
+    return np.array(
+        [p[0] + d[0] * c - d[1] * s, p[1] + d[0] * s + d[1] * c, float(_wrap(p[2] + d[2]))]
+    )
+
+
+class ISAM2SLAM:
+    """iSAM2 landmark SLAM with range-bearing factors; implements ``SlamEstimator``.
+
+    Parameters
+    ----------
+    reject_gate, augment_gate : NIS gates of the data association (4.0, 25.0).
+    x0 : (3,) start pose (default zeros); P0 : (3, 3) its covariance (default 0, floored
+        at ``min_variance`` for the prior factor).
+    node_every_predict : create a pose node per odometry increment instead of per scan.
+    relinearize_threshold, relinearize_skip : ``gtsam.ISAM2Params`` settings.
+    extra_iterations : additional ``ISAM2.update()`` calls after each update (more
+        relinearization after loop closures; 0 is the standard one step per update).
+    marginal_refresh_every : refresh all cached landmark marginals every this many updates.
+    min_variance : floor added to the diagonal of odometry/prior covariances handed to
+        GTSAM (a singular covariance has no square-root information), m² / rad².
+    rng, seed, **_ : accepted and ignored (the estimator is deterministic) so the factory
+        can pass the same keywords to every estimator.
+    """
+
+    name = "isam2"
+
+    def __init__(
+        self,
+        reject_gate: float = 4.0,
+        augment_gate: float = 25.0,
+        *,
+        x0=None,
+        P0=None,
+        node_every_predict: bool = False,
+        relinearize_threshold: float = 0.01,
+        relinearize_skip: int = 1,
+        extra_iterations: int = 0,
+        marginal_refresh_every: int = 20,
+        min_variance: float = 1e-10,
+        rng: np.random.Generator | None = None,
+        seed: int | None = None,
+    ) -> None:
+        gtsam = _import_gtsam()
+        self._g = gtsam
+        if not (np.isfinite(reject_gate) and reject_gate > 0):
+            raise ValueError(f"reject_gate must be finite and > 0, got {reject_gate!r}")
+        if not (np.isfinite(augment_gate) and augment_gate >= reject_gate):
+            raise ValueError(
+                f"augment_gate must be finite and >= reject_gate ({reject_gate}), got {augment_gate!r}"
+            )
+        if not (np.isfinite(relinearize_threshold) and relinearize_threshold > 0):
+            raise ValueError(f"relinearize_threshold must be > 0, got {relinearize_threshold!r}")
+        for nm, val, lo in (
+            ("relinearize_skip", relinearize_skip, 1),
+            ("extra_iterations", extra_iterations, 0),
+            ("marginal_refresh_every", marginal_refresh_every, 1),
+        ):
+            if not (isinstance(val, int | np.integer) and val >= lo):
+                raise ValueError(f"{nm} must be an integer >= {lo}, got {val!r}")
+        if not (np.isfinite(min_variance) and min_variance > 0):
+            raise ValueError(f"min_variance must be finite and > 0, got {min_variance!r}")
+        self.reject_gate = float(reject_gate)
+        self.augment_gate = float(augment_gate)
+        self.node_every_predict = bool(node_every_predict)
+        self.extra_iterations = int(extra_iterations)
+        self.marginal_refresh_every = int(marginal_refresh_every)
+        self.min_variance = float(min_variance)
+
+        x0 = np.zeros(3) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
+        if x0.shape != (3,) or not np.all(np.isfinite(x0)):
+            raise ValueError(f"x0 must be a finite (3,) pose [x, y, phi], got {x0!r}")
+        P0 = np.zeros((3, 3)) if P0 is None else np.asarray(P0, dtype=float)
+        if P0.shape != (3, 3):
+            raise ValueError(f"P0 must have shape (3, 3), got {P0.shape}")
+        validate_covariance("P0", P0, positive_definite=False)
+
+        params = gtsam.ISAM2Params()
+        params.setRelinearizeThreshold(float(relinearize_threshold))
+        params.relinearizeSkip = int(relinearize_skip)
+        self._isam = gtsam.ISAM2(params)
+
+        self._node = 0
+        self._pose_est = x0.copy()
+        self._pose_est[2] = _wrap(x0[2])
+        T = self._local_to_world(self._pose_est[2])
+        P0_local = T.T @ _sym(P0) @ T
+        graph = gtsam.NonlinearFactorGraph()
+        graph.add(
+            gtsam.PriorFactorPose2(
+                self._xkey(0), gtsam.Pose2(*self._pose_est), self._noise(P0_local)
+            )
+        )
+        values = gtsam.Values()
+        values.insert(self._xkey(0), gtsam.Pose2(*self._pose_est))
+        self._isam.update(graph, values)
+        self._pose_cov_world = _sym(P0)
+
+        self._pending = np.zeros(3)  # composed increment since the last node (its frame)
+        self._pending_cov = np.zeros((3, 3))
+        self._has_pending = False
+
+        self._lm_mean = np.zeros((0, 2))
+        self._lm_cov = np.zeros((0, 2, 2))
+        self._lm_label: list[int] = []
+        self._label_index: dict[int, int] = {}
+        self._n_updates = 0
+        self._cov_stale = False
+
+    # ------------------------------------------------------------------ helpers
+    def _xkey(self, i: int) -> int:
+        return self._g.symbol("x", i)
+
+    def _lkey(self, j: int) -> int:
+        return self._g.symbol("l", j)
+
+    @staticmethod
+    def _local_to_world(phi: float) -> np.ndarray:
+        c, s = np.cos(phi), np.sin(phi)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    def _noise(self, cov: np.ndarray):
+        c = _sym(np.asarray(cov, dtype=float)) + self.min_variance * np.eye(cov.shape[0])
+        return self._g.noiseModel.Gaussian.Covariance(c)
+
+    @property
+    def n_pose_nodes(self) -> int:
+        return self._node + 1
+
+    @property
+    def n_landmarks(self) -> int:
+        return self._lm_mean.shape[0]
+
+    # ------------------------------------------------------------------ predict
+    def predict(self, odometry: Odometry) -> None:
+        """Compose one body-frame increment onto the pending odometry since the last node."""
+        if not isinstance(odometry, Odometry):
+            raise ValueError(
+                f"odometry must be a slam.types.Odometry, got {type(odometry).__name__}"
+            )
+        validate_covariance("Odometry.cov", odometry.cov, positive_definite=False)
+        Gv, Gu = _compose_jacobians(self._pending[2], odometry.delta)
+        self._pending_cov = _sym(Gv @ self._pending_cov @ Gv.T + Gu @ _sym(odometry.cov) @ Gu.T)
+        self._pending = _compose(self._pending, odometry.delta)
+        self._has_pending = True
+        if self.node_every_predict:
+            g = self._g
+            graph, values = g.NonlinearFactorGraph(), g.Values()
+            self._add_node(graph, values)
+            self._isam.update(graph, values)
+            self._refresh(observed=())
+
+    def _predicted_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """World-frame pose and covariance of the last node composed with the pending odometry."""
+        if not self._has_pending:
+            return self._pose_est.copy(), self._pose_cov_world.copy()
+        Gv, Gu = _compose_jacobians(self._pose_est[2], self._pending)
+        x = _compose(self._pose_est, self._pending)
+        P = Gv @ self._pose_cov_world @ Gv.T + Gu @ self._pending_cov @ Gu.T
+        return x, _sym(P)
+
+    def _add_node(self, graph, values) -> None:
+        g = self._g
+        if not self._has_pending:
+            return
+        x_new, _ = self._predicted_pose()
+        i = self._node
+        # GTSAM's residual is a right perturbation at the END of the increment
+        # (actual = measured ∘ Exp(xi)): rotate the start-frame covariance into that frame.
+        T = self._local_to_world(self._pending[2])
+        cov_xi = T.T @ self._pending_cov @ T
+        graph.add(
+            g.BetweenFactorPose2(
+                self._xkey(i), self._xkey(i + 1), g.Pose2(*self._pending), self._noise(cov_xi)
+            )
+        )
+        values.insert(self._xkey(i + 1), g.Pose2(*x_new))
+        self._node = i + 1
+        self._pose_est = x_new
+        self._pending = np.zeros(3)
+        self._pending_cov = np.zeros((3, 3))
+        self._has_pending = False
+
+    # ------------------------------------------------------------------ update
+    def update(self, observations: Sequence[RangeBearing]) -> UpdateResult:
+        """Associate, add a pose node with its factors, and run one iSAM2 step."""
+        if isinstance(observations, RangeBearing):
+            raise ValueError("observations must be a sequence of RangeBearing, got a single one")
+        obs = list(observations)
+        for i, o in enumerate(obs):
+            if not isinstance(o, RangeBearing):
+                raise ValueError(
+                    f"observations[{i}] must be a slam.types.RangeBearing, got {type(o).__name__}"
+                )
+            validate_covariance(f"observations[{i}].R", o.R, positive_definite=True)
+            if o.label is not None and not isinstance(o.label, int | np.integer):
+                raise ValueError(f"observations[{i}].label must be an int or None, got {o.label!r}")
+        k = len(obs)
+        if k == 0:
+            return UpdateResult(np.zeros(0, dtype=np.intp), np.zeros(0, dtype=bool), np.zeros(0))
+        Z = np.array([o.z for o in obs])
+        R = np.array([_sym(o.R) for o in obs])
+        xp, Pv = self._predicted_pose()
+
+        assoc, new, nis = self._associate(xp, Pv, Z, R, [o.label for o in obs])
+
+        g = self._g
+        graph, values = g.NonlinearFactorGraph(), g.Values()
+        self._add_node(graph, values)
+        xkey = self._xkey(self._node)
+        n_old = self.n_landmarks
+        new_means, new_labels = [], []
+        for j in range(k):
+            if assoc[j] == -1:
+                continue
+            if new[j]:
+                lm = assoc[j] = n_old + len(new_means)
+                ang = xp[2] + Z[j, 1]
+                pt = xp[:2] + Z[j, 0] * np.array([np.cos(ang), np.sin(ang)])
+                new_means.append(pt)
+                new_labels.append(-1 if obs[j].label is None else int(obs[j].label))
+                values.insert(self._lkey(lm), g.Point2(*pt))
+            Rbr = R[j][::-1, ::-1]  # [range, bearing] -> GTSAM's [bearing, range]
+            graph.add(
+                g.BearingRangeFactor2D(
+                    xkey,
+                    self._lkey(int(assoc[j])),
+                    g.Rot2.fromAngle(float(Z[j, 1])),
+                    float(Z[j, 0]),
+                    self._noise(Rbr),
+                )
+            )
+        self._isam.update(graph, values)
+        for _ in range(self.extra_iterations):
+            self._isam.update()
+        if new_means:
+            self._lm_mean = np.vstack([self._lm_mean, np.array(new_means)])
+            self._lm_cov = np.concatenate([self._lm_cov, np.zeros((len(new_means), 2, 2))])
+            for lab in new_labels:
+                if lab != -1:
+                    self._label_index[lab] = len(self._lm_label)
+                self._lm_label.append(lab)
+        self._n_updates += 1
+        observed = np.unique(assoc[assoc >= 0])
+        self._refresh(observed=observed)
+        return UpdateResult(associations=assoc, new=new, nis=nis)
+
+    def _associate(self, xp, Pv, Z, R, labels):
+        k = Z.shape[0]
+        assoc = np.full(k, -1, dtype=np.intp)
+        new = np.zeros(k, dtype=bool)
+        nis = np.full(k, np.nan)
+        n = self.n_landmarks
+        if n:
+            zhat, Hv, Hf = observation_model(xp[None], self._lm_mean)
+            S0 = Hv @ Pv @ np.swapaxes(Hv, -1, -2) + Hf @ self._lm_cov @ np.swapaxes(Hf, -1, -2)
+            S = S0[None] + R[:, None]  # (k, n, 2, 2)
+            v = Z[:, None] - zhat[None]
+            v[..., 1] = _wrap(v[..., 1])
+            Si, det = _inv2(S)
+            d2 = np.einsum("...i,...ij,...j->...", v, Si, v)
+            ll = -0.5 * d2 - 0.5 * np.log(det) - _LOG_2PI
+        else:
+            d2 = np.full((k, 0), np.inf)
+            ll = d2
+        taken: set[int] = set()
+        seen_labels: set[int] = set()
+        # known labels first, then unlabelled observations by increasing best NIS (greedy)
+        order = sorted(
+            range(k),
+            key=lambda j: (labels[j] is None, float(d2[j].min()) if n else np.inf),
+        )
+        for j in order:
+            lab = labels[j]
+            if lab is not None:
+                lab = int(lab)
+                if lab in seen_labels:
+                    continue  # the same label twice in one scan: keep the first
+                seen_labels.add(lab)
+                if lab in self._label_index:
+                    assoc[j] = self._label_index[lab]
+                    nis[j] = d2[j, assoc[j]]
+                    taken.add(int(assoc[j]))
+                else:
+                    assoc[j], new[j] = -2, True
+                continue
+            if n:
+                cand = (d2[j] < self.reject_gate) & ~np.isin(np.arange(n), list(taken))
+                if cand.any():
+                    best = int(np.argmax(np.where(cand, ll[j], -np.inf)))
+                    assoc[j], nis[j] = best, d2[j, best]
+                    taken.add(best)
+                    continue
+                if d2[j].min() <= self.augment_gate:
+                    continue  # ambiguous: discarded
+            assoc[j], new[j] = -2, True
+        return assoc, new, nis
+
+    def _refresh(self, observed) -> None:
+        """Pull the estimate and the marginals needed by the next association from iSAM2."""
+        est = self._isam.calculateEstimate()
+        p = est.atPose2(self._xkey(self._node))
+        self._pose_est = np.array([p.x(), p.y(), p.theta()])
+        T = self._local_to_world(self._pose_est[2])
+        self._pose_cov_world = _sym(T @ self._isam.marginalCovariance(self._xkey(self._node)) @ T.T)
+        if self.n_landmarks:
+            pts = self._g.utilities.extractPoint2(est)  # ordered by key: l0, l1, …
+            self._lm_mean = np.asarray(pts, dtype=float).reshape(-1, 2)
+            if self._n_updates % self.marginal_refresh_every == 0:
+                observed = range(self.n_landmarks)
+                self._cov_stale = False
+            else:
+                self._cov_stale = True
+            for j in observed:
+                self._lm_cov[j] = self._isam.marginalCovariance(self._lkey(int(j)))
+
+    # ------------------------------------------------------------------ estimates
+    def pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Latest pose node ⊕ pending odometry; covariance from the iSAM2 marginal (world frame)."""
+        return self._predicted_pose()
+
+    def landmarks(self) -> tuple[np.ndarray, np.ndarray]:
+        """Landmark means (n, 2) m and marginal covariances (n, 2, 2) m², world frame."""
+        if self._cov_stale:
+            for j in range(self.n_landmarks):
+                self._lm_cov[j] = self._isam.marginalCovariance(self._lkey(j))
+            self._cov_stale = False
+        return self._lm_mean.copy(), self._lm_cov.copy()
+
+    def landmark_labels(self) -> np.ndarray:
+        """(n,) labels of the landmarks (-1: created from an unlabelled observation)."""
+        return np.array(self._lm_label, dtype=np.int64)
+
+    def trajectory(self) -> np.ndarray:
+        """(n_nodes, 3) smoothed poses of all pose nodes (the whole path, re-estimated)."""
+        est = self._isam.calculateEstimate()
+        return np.asarray(self._g.utilities.extractPose2(est), dtype=float).reshape(-1, 3)

@@ -1,0 +1,346 @@
+"""FastSLAM 2.0 step by step against independent answers.
+
+Expectations come from: a batch linear Kalman filter (information form) for a static
+vehicle; a joint 5-state EKF for the FastSLAM 2.0 proposal; finite-difference Jacobians for
+the prediction; float64 underflow limits for the log-weight test.
+"""
+
+import numpy as np
+import pytest
+
+from slam.estimators.base import SlamEstimator
+from slam.estimators.fastslam2 import FastSLAM2, FastSLAM2Config, observation_model
+from slam.types import Odometry, RangeBearing, wrap_angle
+
+R_DEFAULT = np.diag([0.1**2, np.deg2rad(1.0) ** 2])
+
+
+def _h(x, m):
+    d = m - x[:2]
+    return np.array([np.hypot(*d), wrap_angle(np.arctan2(d[1], d[0]) - x[2])])
+
+
+def _motion(x, u):
+    c, s = np.cos(x[2]), np.sin(x[2])
+    return np.array([x[0] + u[0] * c - u[1] * s, x[1] + u[0] * s + u[1] * c, x[2] + u[2]])
+
+
+def _num_jac(f, x, eps=1e-6):
+    f0 = f(x)
+    J = np.empty((f0.size, x.size))
+    for i in range(x.size):
+        dx = np.zeros_like(x)
+        dx[i] = eps
+        J[:, i] = (f(x + dx) - f(x - dx)) / (2 * eps)
+    return J
+
+
+def _state(f: FastSLAM2):
+    return [a.copy() for a in (f._xv, f._Pv, f._logw, f._m, f._P, f._exists, f._count)]
+
+
+def test_is_a_slam_estimator():
+    assert isinstance(FastSLAM2(n_particles=3, seed=0), SlamEstimator)
+
+
+def test_observation_jacobians_match_finite_differences():
+    x = np.array([1.0, -2.0, 0.7])
+    m = np.array([6.0, 3.0])
+    _, Hv, Hf = observation_model(x, m)
+    np.testing.assert_allclose(Hv, _num_jac(lambda p: _h(p, m), x), atol=1e-7)
+    np.testing.assert_allclose(Hf, _num_jac(lambda q: _h(x, q), m), atol=1e-7)
+
+
+def test_predict_mean_is_the_thesis_model_and_cov_uses_finite_difference_jacobians():
+    x0 = np.array([2.0, 1.0, 0.9])
+    P0 = np.diag([0.3, 0.2, 0.05])
+    u = np.array([1.5, 0.2, 0.1])
+    Q = np.diag([0.01, 0.004, 0.002])
+    f = FastSLAM2(n_particles=4, seed=0, x0=x0, P0=P0)
+    f.predict(Odometry(u, Q))
+    Jx = _num_jac(lambda p: _motion(p, u), x0)
+    Ju = _num_jac(lambda q: _motion(x0, q), u)
+    for i in range(4):
+        np.testing.assert_allclose(f._xv[i], _motion(x0, u), atol=1e-12)
+        np.testing.assert_allclose(f._Pv[i], Jx @ P0 @ Jx.T + Ju @ Q @ Ju.T, atol=1e-9)
+    x, P = f.pose()  # identical particles: the mixture is the single Gaussian
+    np.testing.assert_allclose(x, _motion(x0, u), atol=1e-12)
+    np.testing.assert_allclose(P, Jx @ P0 @ Jx.T + Ju @ Q @ Ju.T, atol=1e-9)
+
+
+def test_static_vehicle_landmark_equals_batch_linear_kalman_filter():
+    """Known pose, 400 observations of one landmark: each particle's landmark EKF must equal
+    the information-form linear KF (linearized at the truth) with an uninformative prior:
+    P = (n HᵀR⁻¹H)⁻¹, m = m_true + P Σ HᵀR⁻¹ (z_i − h(m_true))."""
+    rng = np.random.default_rng(11)
+    m_true = np.array([8.0, 6.0])
+    x = np.zeros(3)
+    f = FastSLAM2(n_particles=5, rng=np.random.default_rng(1))
+    zs = []
+    for _ in range(400):
+        z = _h(x, m_true) + rng.multivariate_normal(np.zeros(2), R_DEFAULT)
+        zs.append(z)
+        res = f.update([RangeBearing(z, R_DEFAULT, label=7)])
+    assert res.associations.tolist() == [0] and not res.new[0]
+    _, _, H = observation_model(x, m_true)
+    Ri = np.linalg.inv(R_DEFAULT)
+    info = len(zs) * H.T @ Ri @ H
+    P_kf = np.linalg.inv(info)
+    innov = np.array(zs) - _h(x, m_true)
+    innov[:, 1] = wrap_angle(innov[:, 1])
+    m_kf = m_true + P_kf @ (H.T @ Ri @ innov.sum(axis=0))
+    M, C = f.landmarks()
+    assert M.shape == (1, 2)
+    np.testing.assert_allclose(C[0], P_kf, rtol=0.02)
+    sigma = np.sqrt(np.linalg.eigvalsh(P_kf).min())
+    assert np.linalg.norm(M[0] - m_kf) < 0.05 * sigma
+    # every particle holds the same landmark (the pose is exact, so no sampling spread)
+    np.testing.assert_allclose(f._m[:, 0], np.broadcast_to(M[0], (5, 2)), atol=1e-12)
+    assert f.landmark_labels().tolist() == [7]
+
+
+def test_proposal_samples_the_joint_ekf_pose_posterior():
+    """FastSLAM 2.0 samples x ~ p(x | x_{k-1}, u, z, m). With identical particles and a
+    known landmark this Gaussian is the pose marginal of a joint [pose, landmark] EKF update;
+    4000 samples must reproduce its mean (4 standard errors) and covariance (10 %)."""
+    n = 4000
+    f = FastSLAM2(n_particles=n, rng=np.random.default_rng(5))
+    m_true = np.array([10.0, 4.0])
+    z0 = _h(np.zeros(3), m_true)
+    f.update([RangeBearing(z0, R_DEFAULT, label=1)])  # exact pose: landmark from z0
+    Pf = f._P[0, 0].copy()
+    mf = f._m[0, 0].copy()
+    u = np.array([2.0, 0.0, 0.05])
+    Q = np.diag([0.2**2, 0.1**2, np.deg2rad(4.0) ** 2])
+    f.predict(Odometry(u, Q))
+    xp, Pp = f._xv[0].copy(), f._Pv[0].copy()
+    z1 = np.array([8.3, -0.25])
+    f.update([RangeBearing(z1, R_DEFAULT, label=1)])
+    # second implementation: joint EKF on s = [x, y, phi, mx, my]
+    s = np.concatenate([xp, mf])
+    Ps = np.zeros((5, 5))
+    Ps[:3, :3], Ps[3:, 3:] = Pp, Pf
+    zhat = _h(s[:3], s[3:])
+    H = _num_jac(lambda q: _h(q[:3], q[3:]), s)
+    S = H @ Ps @ H.T + R_DEFAULT
+    K = Ps @ H.T @ np.linalg.inv(S)
+    v = z1 - zhat
+    v[1] = wrap_angle(v[1])
+    s_post = s + K @ v
+    P_post = (np.eye(5) - K @ H) @ Ps
+    x_exp, P_exp = s_post[:3], P_post[:3, :3]
+    assert f.n_resamples == 0  # identical particles, equal weights
+    samples = f.particle_poses
+    se = np.sqrt(np.diag(P_exp) / n)
+    assert np.all(np.abs(samples.mean(axis=0) - x_exp) < 4 * se)
+    C = np.cov(samples.T)
+    np.testing.assert_allclose(np.sqrt(np.diag(C)), np.sqrt(np.diag(P_exp)), rtol=0.1)
+    # the proposal really samples: the spread is the posterior's, not zero and not the prior's
+    assert np.linalg.det(C) < 0.5 * np.linalg.det(Pp)
+    assert np.linalg.det(C) > 0.7 * np.linalg.det(P_exp)
+    _, P = f.pose()
+    np.testing.assert_allclose(P, C * (n - 1) / n, atol=1e-12)
+
+
+def _loop_filter(n=50, seed=0):
+    """A filter that has mapped two landmarks with some pose uncertainty."""
+    f = FastSLAM2(n_particles=n, rng=np.random.default_rng(seed))
+    lms = np.array([[10.0, 3.0], [12.0, -4.0]])
+    rng = np.random.default_rng(seed + 100)
+    x = np.zeros(3)
+    Q = np.diag([0.05**2, 0.02**2, np.deg2rad(1.0) ** 2])
+    for _ in range(5):
+        obs = [
+            RangeBearing(
+                _h(x, lm) + rng.multivariate_normal(np.zeros(2), R_DEFAULT), R_DEFAULT, label=i
+            )
+            for i, lm in enumerate(lms)
+        ]
+        f.update(obs)
+        u = np.array([0.5, 0.0, 0.0])
+        x = _motion(x, u)
+        f.predict(Odometry(u + rng.multivariate_normal(np.zeros(3), Q), Q))
+    return f, lms, x
+
+
+def test_huge_innovation_keeps_log_weights_finite_and_normalized():
+    """A loop-closure-like observation 60 m off: its NIS is so large that exp(-NIS/2)
+    underflows to exactly 0 in float64 for every particle (so linear weights, as in Bailey's
+    MATLAB code, would all be zero); the log-form weights must stay a valid distribution."""
+    f, lms, x = _loop_filter()
+    z = _h(x, lms[0]) + np.array([60.0, 0.0])
+    res = f.update([RangeBearing(z, R_DEFAULT, label=0)])
+    assert res.nis[0] > 2 * 745.0  # exp(-nis/2) < 1e-323: linear weights all underflow
+    w = f.weights
+    assert np.all(np.isfinite(w)) and np.all(w >= 0) and w.sum() == pytest.approx(1.0)
+    assert np.all(np.isfinite(f.log_weights))
+    x_est, P = f.pose()
+    assert np.all(np.isfinite(x_est)) and np.all(np.isfinite(P))
+    M, C = f.landmarks()
+    assert np.all(np.isfinite(M)) and np.all(np.isfinite(C))
+
+
+def test_unknown_association_matches_well_separated_landmarks_without_duplicates():
+    """Landmarks >= 10 m apart, σ_r 0.1 m: every unlabelled re-observation must either land on
+    the slot its first sighting created or be discarded between the gates (NIS in [4, 25],
+    which a correct χ²₂ match does with probability e⁻² ≈ 13.5 %); never a wrong landmark,
+    never a duplicate."""
+    rng = np.random.default_rng(3)
+    lms = np.array([[10.0, 0.0], [10.0, 10.0], [0.0, 12.0], [-8.0, 5.0]])
+    f = FastSLAM2(n_particles=30, rng=np.random.default_rng(4))
+    first = {}
+    x = np.zeros(3)
+    Q = np.diag([0.02**2, 0.01**2, np.deg2rad(0.5) ** 2])
+    n_matched = n_discarded = 0
+    for step in range(30):
+        order = rng.permutation(len(lms))
+        obs = [
+            RangeBearing(_h(x, lms[i]) + rng.multivariate_normal(np.zeros(2), R_DEFAULT), R_DEFAULT)
+            for i in order
+        ]
+        res = f.update(obs)
+        for j, i in enumerate(order):
+            if step == 0:
+                assert res.new[j]
+                first[i] = res.associations[j]
+            else:
+                assert not res.new[j]
+                assert res.associations[j] in (first[i], -1)
+                n_matched += res.associations[j] == first[i]
+                n_discarded += res.associations[j] == -1
+        u = np.array([0.1, 0.0, 0.02])
+        x = _motion(x, u)
+        f.predict(Odometry(u + rng.multivariate_normal(np.zeros(3), Q), Q))
+    assert n_discarded <= 0.25 * (n_matched + n_discarded)
+    M, _ = f.landmarks()
+    assert M.shape == (4, 2)
+    assert np.all(f._count == 4)  # no particle created a duplicate
+    assert np.all(f.landmark_labels() == -1)
+    err = np.linalg.norm(M[[first[i] for i in range(4)]] - lms, axis=1)
+    assert np.all(err < 0.5)
+
+
+def test_between_the_gates_the_observation_is_discarded():
+    """NIS between reject_gate and augment_gate: neither matched nor a new landmark."""
+    f = FastSLAM2(n_particles=5, rng=np.random.default_rng(0))
+    f.update([RangeBearing([10.0, 0.0], R_DEFAULT)])
+    P = f._P[0, 0]
+    _, _, Hf = observation_model(np.zeros(3), f._m[0, 0])
+    S = Hf @ P @ Hf.T + R_DEFAULT
+    # choose a range offset giving NIS = 10 (between 4 and 25)
+    dr = np.sqrt(10.0 / np.linalg.inv(S)[0, 0])
+    res = f.update([RangeBearing([10.0 + dr, 0.0], R_DEFAULT)])
+    assert res.associations.tolist() == [-1] and not res.new[0]
+    assert f.landmarks()[0].shape == (1, 2)
+
+
+def test_same_seed_same_result_and_rng_is_the_only_randomness():
+    a, _, _ = _loop_filter(seed=2)
+    np.random.seed(123)  # noqa: NPY002 - the global RNG must not matter
+    b, _, _ = _loop_filter(seed=2)
+    np.testing.assert_array_equal(a.particle_poses, b.particle_poses)
+    c, _, _ = _loop_filter(seed=3)
+    assert not np.array_equal(a.particle_poses, c.particle_poses)
+
+
+def test_resampling_runs_only_when_effective_sample_size_drops_below_75_percent():
+    """Particles spread 2 m along x with exact poses: a precise observation gives very unequal
+    weights (N_eff << 75), so resampling must run and reset the weights to uniform.
+    Identical particles get equal weights (N_eff = N): no resampling."""
+    f, lms, x = _loop_filter(n=100, seed=1)
+    f._xv = np.tile(x, (100, 1))
+    f._Pv[:] = 0.0
+    f._m[:], f._P[:] = f._m[0], f._P[0]
+    obs = [RangeBearing(_h(x, lms[i]), R_DEFAULT, label=i) for i in range(2)]
+    before = f.n_resamples
+    f.update(obs)
+    assert f.n_resamples == before
+    f._xv = np.tile(x, (100, 1))
+    f._xv[:, 0] += np.linspace(-1.0, 1.0, 100)
+    f._Pv[:] = 0.0
+    f.update(obs)
+    assert f.n_resamples == before + 1
+    np.testing.assert_allclose(f.weights, np.full(100, 0.01))
+
+
+@pytest.mark.parametrize(
+    "cov, match",
+    [
+        (np.diag([0.1, -0.01, 0.1]), "negative variances"),
+        (np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), "semi-definite"),
+        (np.array([[1.0, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), "symmetric"),
+    ],
+)
+def test_bad_odometry_covariance_rejected_state_unchanged(cov, match):
+    f, _, _ = _loop_filter(n=10)
+    before = _state(f)
+    with pytest.raises(ValueError, match=match):
+        f.predict(Odometry(np.array([1.0, 0.0, 0.0]), cov))
+    for a, b in zip(before, _state(f)):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize(
+    "bad, match",
+    [
+        (RangeBearing([5.0, 0.1], np.diag([0.01, 0.0])), "positive definite"),
+        (RangeBearing([5.0, 0.1], np.diag([0.01, -1e-4])), "negative variances"),
+        ((5.0, 0.1), "RangeBearing"),
+        (RangeBearing([5.0, 0.1], R_DEFAULT, label="a"), "label"),
+    ],
+)
+def test_bad_observation_rejected_state_unchanged(bad, match):
+    f, lms, x = _loop_filter(n=10)
+    before = _state(f)
+    rng_state = f.rng.bit_generator.state
+    good = RangeBearing(_h(x, lms[0]), R_DEFAULT, label=0)
+    with pytest.raises(ValueError, match=match):
+        f.update([good, bad])
+    for a, b in zip(before, _state(f)):
+        np.testing.assert_array_equal(a, b)
+    assert f.rng.bit_generator.state == rng_state
+
+
+def test_zero_range_and_non_finite_inputs_are_rejected_at_the_boundary():
+    with pytest.raises(ValueError, match="range"):
+        RangeBearing([0.0, 0.1], R_DEFAULT)
+    with pytest.raises(ValueError, match="finite"):
+        Odometry([np.nan, 0.0, 0.0], np.eye(3))
+    with pytest.raises(ValueError, match="single one"):
+        FastSLAM2(n_particles=2, seed=0).update(RangeBearing([1.0, 0.0], R_DEFAULT))
+
+
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"n_particles": 0}, "n_particles"),
+        ({"resample_threshold": 1.5}, "resample_threshold"),
+        ({"reject_gate": -1.0}, "reject_gate"),
+        ({"augment_gate": 1.0}, "augment_gate"),
+        ({"resampler": "multinomial"}, "resampler"),
+        ({"map_estimate": "mean"}, "map_estimate"),
+    ],
+)
+def test_bad_config_rejected(kw, match):
+    with pytest.raises(ValueError, match=match):
+        FastSLAM2Config(**kw)
+    with pytest.raises(ValueError, match=match):
+        FastSLAM2(**kw)
+
+
+def test_weighted_map_estimate_is_the_mixture_over_particles():
+    """With known association, map_estimate='weighted' returns Σ w m_i and Σ w (P_i + d dᵀ)."""
+    f, _, _ = _loop_filter(n=40, seed=4)
+    g = FastSLAM2(n_particles=40, rng=np.random.default_rng(0), map_estimate="weighted")
+    for attr in ("_xv", "_Pv", "_logw", "_m", "_P", "_exists", "_count", "_slot_label"):
+        setattr(g, attr, getattr(f, attr).copy())
+    w = f.weights
+    M, C = g.landmarks()
+    mu = np.einsum("i,ijk->jk", w, f._m[:, :2])
+    np.testing.assert_allclose(M, mu)
+    d = f._m[:, :2] - mu
+    np.testing.assert_allclose(
+        C,
+        np.einsum("i,ijk,ijl->jkl", w, d, d) + np.einsum("i,ijkl->jkl", w, f._P[:, :2]),
+        atol=1e-14,
+    )
