@@ -1,0 +1,73 @@
+"""Segmentation and landmarks: the reference's improved Otsu TSM, the baseline threshold
+methods, the morphology chain (Algorithm 2), region landmarks and scoring against ground
+truth masks. See the submodules' docstrings for the definitions."""
+
+from .image import as_gray8, as_mask, load_gray8, load_mask
+from .kapur import kapur_entropy_curve, kapur_threshold, kapur_threshold_hist
+from .methods import (
+    METHODS,
+    SegmentationResult,
+    canny_edges,
+    count_small_contours,
+    improved_otsu,
+    segment,
+)
+from .otsu import gray_histogram, otsu_threshold, otsu_threshold_hist, power_law, power_law_lut
+from .presets import PRESETS, SegmentationParams, get_preset, params_for_shape
+from .regions import (
+    Region,
+    RegionFilter,
+    bridge,
+    bridge_lut,
+    extract_regions,
+    fill_holes,
+    morphology_chain,
+    remove_small_components,
+)
+from .scoring import (
+    DetectionScore,
+    candidate_centroids,
+    match_centroids,
+    score_detections,
+    score_result,
+    sum_scores,
+)
+
+__all__ = [
+    "METHODS",
+    "PRESETS",
+    "DetectionScore",
+    "Region",
+    "RegionFilter",
+    "SegmentationParams",
+    "SegmentationResult",
+    "as_gray8",
+    "as_mask",
+    "bridge",
+    "bridge_lut",
+    "candidate_centroids",
+    "canny_edges",
+    "count_small_contours",
+    "extract_regions",
+    "fill_holes",
+    "get_preset",
+    "gray_histogram",
+    "improved_otsu",
+    "kapur_entropy_curve",
+    "kapur_threshold",
+    "kapur_threshold_hist",
+    "load_gray8",
+    "load_mask",
+    "match_centroids",
+    "morphology_chain",
+    "otsu_threshold",
+    "otsu_threshold_hist",
+    "params_for_shape",
+    "power_law",
+    "power_law_lut",
+    "remove_small_components",
+    "score_detections",
+    "score_result",
+    "segment",
+    "sum_scores",
+]
