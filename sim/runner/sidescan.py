@@ -1,0 +1,250 @@
+"""Side-scan waterfall windows -> detections -> SLAM observations.
+
+Pings accumulate in a waterfall ``(pings, 2 x samples)`` (port left, starboard right).
+Every ``hop`` pings, the last ``window`` pings are segmented by the front end
+(slam.frontend.segmentation). Windows overlap, so the same object appears in two of
+them; each ping is *owned* by exactly one window - the one in which it lies in the
+central ``hop`` rows ([a + (W - H) / 2, a + (W + H) / 2) for the window starting at
+ping a) - and only regions whose centroid falls in owned rows become detections. That
+gives every region context on both sides and never reports one object twice from two
+windows. Several regions of one object (a wreck broken into highlights) within one
+window are merged when their ground positions (relative to the vehicle track) lie
+closer than ``merge_radius``.
+
+Each detection is tied to the ping of its centroid (time t_k): the observation is
+``range`` = ground range sqrt(r^2 - h^2) of the centroid's slant range r at the DVL
+altitude h, ``bearing`` = +pi/2 (port) or -pi/2 (starboard) in the body frame at t_k,
+with a covariance from the sonar geometry and the region's extent:
+sigma_r^2 = (bin width)^2 / 12 + (across-track extent / 4)^2 and
+sigma_theta = atan2(along-track extent / 4 + sigma_along, range) with sigma_along the
+along-track spacing of pings. The runner feeds it to SLAM at the pose of t_k
+(sim.runner.lagged).
+
+Scoring uses the simulator's per-sample labels: a detection is a true positive when at
+least ``tp_fraction`` of its region's pixels carry an object id > 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from slam.types import RangeBearing
+
+
+@dataclass(frozen=True)
+class PingRecord:
+    """What the runner keeps per side-scan ping.
+
+    t: acquisition time, s. intensity (2S,) float32 linear, port left (far range first).
+    labels (2S,) int32 object id per sample (0 seabed, -1 no return, k >= 1 object k).
+    slant_range (S,) m of the starboard half's samples (near to far; port mirrored).
+    altitude: measured altitude (DVL), m. pose_true (3,) [x, y, yaw] for scoring only.
+    speed: along-track speed estimate, m/s (for the along-track pixel size).
+    """
+
+    t: float
+    intensity: np.ndarray
+    labels: np.ndarray
+    slant_range: np.ndarray
+    altitude: float
+    pose_true: np.ndarray
+    speed: float = 1.5
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One side-scan detection tied to the ping of its centroid."""
+
+    t: float
+    ping: int
+    side: str  # "port" | "starboard"
+    slant_range: float
+    ground_range: float
+    area_px: int
+    observation: RangeBearing
+    object_id: int  # majority simulator label of the region (0 = none) - scoring only
+    true_positive: bool
+    world_xy_true_pose: np.ndarray  # the detection placed with the true pose (scoring only)
+
+
+@dataclass
+class WindowResult:
+    """One segmented window: its image, class-id overlay and detections owned here."""
+
+    start: int
+    image: np.ndarray
+    overlay: np.ndarray
+    detections: list[Detection]
+    horizon_t: float  # every ping at or before this time is final (no later detections)
+    fp_pixels: int = 0
+    bg_pixels: int = 0
+    imaged_ids: set = field(default_factory=set)
+
+
+class SidescanProcessor:
+    """Windows a side-scan waterfall and turns segmented regions into detections.
+
+    segment(image float32 (W, 2S)) -> (labels int (W, 2S) regions 1..n, regions list with
+    .label .area_px .centroid_rc .bbox) - a thin adapter over the front end.
+    """
+
+    def __init__(
+        self,
+        segment: Callable[[np.ndarray], tuple[np.ndarray, list]],
+        window: int,
+        hop: int,
+        *,
+        min_area_px: int = 4,
+        merge_radius: float = 3.0,
+        tp_fraction: float = 0.1,
+        class_of: Callable[[int], int] | None = None,
+    ) -> None:
+        if not 1 <= hop <= window:
+            raise ValueError(f"hop must be in [1, window={window}], got {hop}")
+        self.segment = segment
+        self.window = int(window)
+        self.hop = int(hop)
+        self.min_area_px = int(min_area_px)
+        self.merge_radius = float(merge_radius)
+        self.tp_fraction = float(tp_fraction)
+        self.class_of = class_of or (lambda oid: 1 if oid > 0 else 0)
+        self.pings: list[PingRecord] = []
+        self._next_start = 0  # start ping of the next window
+        self._owned_until = 0  # pings < this are owned by processed windows
+
+    def add(self, ping: PingRecord) -> WindowResult | None:
+        """Add one ping; returns a WindowResult when a window was processed."""
+        self.pings.append(ping)
+        if len(self.pings) >= self._next_start + self.window:
+            return self._process(self._next_start, final=False)
+        return None
+
+    def flush(self) -> WindowResult | None:
+        """Process the remaining pings (end of run)."""
+        n = len(self.pings)
+        if n <= self._owned_until:
+            return None
+        start = max(0, n - self.window)
+        return self._process(start, final=True)
+
+    def _process(self, a: int, final: bool) -> WindowResult:
+        W, H = self.window, self.hop
+        pings = self.pings[a : a + W]
+        img = np.stack([p.intensity for p in pings]).astype(np.float32)
+        lab = np.stack([p.labels for p in pings]).astype(np.int32)
+        own_lo = self._owned_until
+        own_hi = len(self.pings) if final else a + (W + H) // 2
+        seg_labels, regions = self.segment(img)
+        fg = seg_labels > 0
+        rows_owned = slice(max(own_lo - a, 0), max(own_hi - a, 0))
+        bg = lab[rows_owned] == 0
+        fp_pixels = int(np.count_nonzero(fg[rows_owned] & bg))
+        bg_pixels = int(np.count_nonzero(bg))
+        imaged = set(np.unique(lab[rows_owned][lab[rows_owned] > 0]).tolist())
+        overlay = np.zeros(img.shape, np.uint16)
+        dets = self._detections(a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay)
+        self._owned_until = own_hi
+        self._next_start = a + H
+        horizon = self.pings[own_hi - 1].t
+        return WindowResult(a, img, overlay, dets, horizon, fp_pixels, bg_pixels, imaged)
+
+    def _detections(
+        self, a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay
+    ) -> list[Detection]:
+        S = img.shape[1] // 2
+        cand = []
+        flat_seg = seg_labels.ravel()
+        order = np.argsort(flat_seg, kind="stable")
+        bounds = np.searchsorted(flat_seg[order], np.arange(int(flat_seg.max(initial=0)) + 2))
+        for reg in regions:
+            if reg.area_px < self.min_area_px:
+                continue
+            r, c = reg.centroid_rc
+            k = a + round(r)
+            if not own_lo <= k < own_hi:
+                continue
+            idx = order[bounds[reg.label] : bounds[reg.label + 1]]
+            region_labels = lab.ravel()[idx]
+            objs = region_labels[region_labels > 0]
+            oid = int(np.bincount(objs).argmax()) if objs.size else 0
+            frac = objs.size / max(idx.size, 1)
+            overlay.ravel()[idx] = self.class_of(oid) if oid > 0 else 255
+            port = c < S
+            col = round(c)
+            sample = (S - 1 - col) if port else (col - S)
+            sample = int(np.clip(sample, 0, S - 1))
+            p = self.pings[k]
+            rs = float(p.slant_range[sample])
+            h = float(p.altitude)
+            g = float(np.sqrt(max(rs * rs - h * h, 0.25)))
+            r0, c0, r1, c1 = reg.bbox
+            bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
+            across = (c1 - c0) * bin_w
+            along = (r1 - r0) * max(p.speed, 0.1) / max(self._ping_rate(), 1e-3)
+            cand.append((k, port, rs, g, reg.area_px, across, along, oid, frac))
+        # merge regions of one object: same side, close in along-track (m) and ground range
+        cand.sort(key=lambda x: (x[1], x[0], x[3]))
+        merged: list[list] = []
+        for cd in cand:
+            for m in merged:
+                if m[0][1] == cd[1]:
+                    d_al = (
+                        abs(self.pings[m[0][0]].t - self.pings[cd[0]].t) * self.pings[cd[0]].speed
+                    )
+                    if np.hypot(d_al, m[0][3] - cd[3]) < self.merge_radius:
+                        m.append(cd)
+                        break
+            else:
+                merged.append([cd])
+        out = []
+        for grp in merged:
+            w = np.array([g[4] for g in grp], float)
+            k = round(np.average([g[0] for g in grp], weights=w))
+            port = grp[0][1]
+            rs = float(np.average([g[2] for g in grp], weights=w))
+            g = float(np.average([g[3] for g in grp], weights=w))
+            area = int(w.sum())
+            across = max(g_[5] for g_ in grp)
+            along = max(g_[6] for g_ in grp)
+            oid = max(grp, key=lambda x: x[4])[7]
+            frac = float(np.average([g_[8] for g_ in grp], weights=w))
+            p = self.pings[k]
+            bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
+            sig_r = np.sqrt(bin_w**2 / 12 + (across / 4) ** 2 + 0.05**2)
+            sig_along = max(p.speed, 0.1) / max(self._ping_rate(), 1e-3)
+            sig_t = np.arctan2(along / 4 + sig_along, g)
+            bearing = np.pi / 2 if port else -np.pi / 2
+            obs = RangeBearing(
+                [g, bearing],
+                np.diag([sig_r**2, sig_t**2]),
+                t=p.t,
+                meta={"object_id": oid, "ping": k},
+            )
+            x, y, yaw = p.pose_true
+            wxy = np.array([x + g * np.cos(yaw + bearing), y + g * np.sin(yaw + bearing)])
+            out.append(
+                Detection(
+                    p.t,
+                    k,
+                    "port" if port else "starboard",
+                    rs,
+                    g,
+                    area,
+                    obs,
+                    oid,
+                    frac >= self.tp_fraction,
+                    wxy,
+                )
+            )
+        out.sort(key=lambda d: (d.t, d.side, d.ground_range))
+        return out
+
+    def _ping_rate(self) -> float:
+        n = len(self.pings)
+        if n < 2:
+            return 10.0
+        dt = (self.pings[-1].t - self.pings[0].t) / (n - 1)
+        return 1.0 / dt if dt > 0 else 10.0
