@@ -145,3 +145,40 @@ def test_canonical_json_is_stable_and_nan_is_null():
     a = dumps_canonical({"b": np.float64(np.nan), "a": np.arange(2)})
     assert a == dumps_canonical({"a": [0, 1], "b": None})
     assert json.loads(a) == {"a": [0, 1], "b": None}
+
+
+def test_mosaic_grid_means_and_sample_positions():
+    """Two values in one cell average; a starboard sample of a vehicle heading east lies
+    south of it (y = -g), a port sample north."""
+    from sim.runner.figures import mosaic_grid, sss_sample_world_xy
+
+    g = mosaic_grid(
+        np.array([[0.2, 0.2], [0.4, 0.3], [5.0, 5.0]]),
+        np.array([1.0, 3.0, 7.0]),
+        (0, 10, 0, 10),
+        1.0,
+    )
+    assert g[9, 0] == 2.0 and g[5, 5] == 7.0 and np.isnan(g[0, 0])
+    xy = sss_sample_world_xy(np.array([[10.0, 20.0, 0.0]]), np.array([[1.0, 5.0]]))
+    assert np.allclose(xy[0], [[10, 25], [10, 21], [10, 19], [10, 15]])
+
+
+def test_figures_written(tmp_path, rng):
+    from sim.runner.figures import VehiclePlotData, plot_sss_mosaic, plot_trajectory_map
+
+    v = VehiclePlotData(
+        "a",
+        rng.normal(size=(20, 2)),
+        rng.normal(size=(20, 2)),
+        np.zeros((1, 2)),
+        np.eye(2)[None],
+        np.zeros((1, 2)),
+    )
+    p = plot_trajectory_map(tmp_path / "t.png", [v], [("rock", np.zeros(3), np.ones(3))])
+    m = plot_sss_mosaic(
+        tmp_path / "m.png",
+        {"a/sss": (rng.random((10, 10)), (0, 10, 0, 10))},
+        {"a/sss": np.ones((1, 2))},
+        [],
+    )
+    assert p.stat().st_size > 1000 and m.stat().st_size > 1000
