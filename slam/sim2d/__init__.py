@@ -2,7 +2,13 @@
 reference's maps. See vehicle.py (vehicle, steering, true path), simulate.py (noisy runs)
 and maps.py."""
 
-from slam.sim2d.maps import dense_loop_map, line_map, segmentation_loop_map
+from slam.sim2d.maps import (
+    DENSE_LOOP_LANDMARKS_AB,
+    LINE_LANDMARKS_ABCD,
+    dense_loop_map,
+    line_map,
+    segmentation_loop_map,
+)
 from slam.sim2d.simulate import (
     Sim2DRun,
     compose_increments,
@@ -14,6 +20,8 @@ from slam.sim2d.simulate import (
 from slam.sim2d.vehicle import Sim2DConfig, TruePath, compute_steering, true_path, vehicle_step
 
 __all__ = [
+    "DENSE_LOOP_LANDMARKS_AB",
+    "LINE_LANDMARKS_ABCD",
     "Sim2DConfig",
     "Sim2DRun",
     "TruePath",
