@@ -159,6 +159,10 @@ class FastSLAM2Config:
         observation scores like one that explains it at the augment gate.
     resampler : "systematic" (default) or "stratified" (Bailey's).
     map_estimate : "best" (highest-weight particle's map) or "weighted".
+    association : "ml" (default, as the AEKF: labels are ignored and every particle
+        associates by maximum likelihood), "known" (every observation must carry a
+        ``label``, which is the landmark identity, as in Bailey's FastSLAM 2.0) or "auto"
+        (the label when present, maximum likelihood otherwise).
     initial_capacity : landmark slots allocated at start (grown by doubling).
     """
 
@@ -169,6 +173,7 @@ class FastSLAM2Config:
     new_landmark_log_likelihood: float | None = None
     resampler: str = "systematic"
     map_estimate: str = "best"
+    association: str = "ml"
     initial_capacity: int = 32
 
     def __post_init__(self) -> None:
@@ -200,6 +205,10 @@ class FastSLAM2Config:
             raise ValueError(
                 f"map_estimate must be 'best' or 'weighted', got {self.map_estimate!r}"
             )
+        if self.association not in ("ml", "known", "auto"):
+            raise ValueError(
+                f"association must be 'ml', 'known' or 'auto', got {self.association!r}"
+            )
         if not (isinstance(self.initial_capacity, int | np.integer) and self.initial_capacity >= 1):
             raise ValueError(
                 f"initial_capacity must be an integer >= 1, got {self.initial_capacity!r}"
@@ -213,7 +222,7 @@ class FastSLAM2:
     Parameters
     ----------
     n_particles, resample_threshold, reject_gate, augment_gate, new_landmark_log_likelihood,
-    resampler, map_estimate, initial_capacity : see :class:`FastSLAM2Config`.
+    resampler, map_estimate, association, initial_capacity : see :class:`FastSLAM2Config`.
     rng : numpy Generator for proposal sampling and resampling; if None, one is made from
         ``seed`` (``np.random.default_rng(seed)``).
     seed : used only when ``rng`` is None.
@@ -235,6 +244,7 @@ class FastSLAM2:
         new_landmark_log_likelihood: float | None = None,
         resampler: str = "systematic",
         map_estimate: str = "best",
+        association: str = "ml",
         initial_capacity: int = 32,
         seed: int | None = None,
         x0=None,
@@ -250,6 +260,7 @@ class FastSLAM2:
                 new_landmark_log_likelihood=new_landmark_log_likelihood,
                 resampler=resampler,
                 map_estimate=map_estimate,
+                association=association,
                 initial_capacity=initial_capacity,
             )
         self.config = config
@@ -353,6 +364,13 @@ class FastSLAM2:
             if o.label is not None and not isinstance(o.label, int | np.integer):
                 raise ValueError(f"observations[{i}].label must be an int or None, got {o.label!r}")
             labels.append(None if o.label is None else int(o.label))
+        if self.config.association == "ml":
+            labels = [None] * len(obs)
+        elif self.config.association == "known" and any(lab is None for lab in labels):
+            j = labels.index(None)
+            raise ValueError(
+                f"association='known' needs a label on every observation; observations[{j}].label is None"
+            )
         if not obs:
             return np.zeros((0, 2)), np.zeros((0, 2, 2)), labels
         Z = np.array([o.z for o in obs], dtype=float)
@@ -621,6 +639,11 @@ class FastSLAM2:
     def landmark_labels(self) -> np.ndarray:
         """(n,) int labels of the landmarks returned by :meth:`landmarks` (-1: unlabelled)."""
         return self._slot_label[self._slots()].copy()
+
+    @property
+    def labels(self) -> np.ndarray:
+        """Same as :meth:`landmark_labels` (the attribute name the AEKF uses)."""
+        return self.landmark_labels()
 
     def landmark_slots(self) -> np.ndarray:
         """(n,) slot indices of the landmarks returned by :meth:`landmarks`."""

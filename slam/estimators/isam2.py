@@ -75,6 +75,8 @@ class ISAM2SLAM:
     reject_gate, augment_gate : NIS gates of the data association (4.0, 25.0).
     x0 : (3,) start pose (default zeros); P0 : (3, 3) its covariance (default 0, floored
         at ``min_variance`` for the prior factor).
+    association : "ml" (default: labels ignored, gated maximum likelihood), "known" (every
+        observation's ``label`` is its landmark identity) or "auto" (label when present).
     node_every_predict : create a pose node per odometry increment instead of per scan.
     relinearize_threshold, relinearize_skip : ``gtsam.ISAM2Params`` settings.
     extra_iterations : additional ``ISAM2.update()`` calls after each update (more
@@ -95,6 +97,7 @@ class ISAM2SLAM:
         *,
         x0=None,
         P0=None,
+        association: str = "ml",
         node_every_predict: bool = False,
         relinearize_threshold: float = 0.01,
         relinearize_skip: int = 1,
@@ -112,6 +115,9 @@ class ISAM2SLAM:
             raise ValueError(
                 f"augment_gate must be finite and >= reject_gate ({reject_gate}), got {augment_gate!r}"
             )
+        if association not in ("ml", "known", "auto"):
+            raise ValueError(f"association must be 'ml', 'known' or 'auto', got {association!r}")
+        self.association = association
         if not (np.isfinite(relinearize_threshold) and relinearize_threshold > 0):
             raise ValueError(f"relinearize_threshold must be > 0, got {relinearize_threshold!r}")
         for nm, val, lo in (
@@ -261,11 +267,19 @@ class ISAM2SLAM:
         k = len(obs)
         if k == 0:
             return UpdateResult(np.zeros(0, dtype=np.intp), np.zeros(0, dtype=bool), np.zeros(0))
+        labels = [None if o.label is None else int(o.label) for o in obs]
+        if self.association == "ml":
+            labels = [None] * k
+        elif self.association == "known" and None in labels:
+            raise ValueError(
+                "association='known' needs a label on every observation; "
+                f"observations[{labels.index(None)}].label is None"
+            )
         Z = np.array([o.z for o in obs])
         R = np.array([_sym(o.R) for o in obs])
         xp, Pv = self._predicted_pose()
 
-        assoc, new, nis = self._associate(xp, Pv, Z, R, [o.label for o in obs])
+        assoc, new, nis = self._associate(xp, Pv, Z, R, labels)
 
         g = self._g
         graph, values = g.NonlinearFactorGraph(), g.Values()
@@ -281,7 +295,7 @@ class ISAM2SLAM:
                 ang = xp[2] + Z[j, 1]
                 pt = xp[:2] + Z[j, 0] * np.array([np.cos(ang), np.sin(ang)])
                 new_means.append(pt)
-                new_labels.append(-1 if obs[j].label is None else int(obs[j].label))
+                new_labels.append(-1 if labels[j] is None else labels[j])
                 values.insert(self._lkey(lm), g.Point2(*pt))
             Rbr = R[j][::-1, ::-1]  # [range, bearing] -> GTSAM's [bearing, range]
             graph.add(
@@ -393,6 +407,11 @@ class ISAM2SLAM:
     def landmark_labels(self) -> np.ndarray:
         """(n,) labels of the landmarks (-1: created from an unlabelled observation)."""
         return np.array(self._lm_label, dtype=np.int64)
+
+    @property
+    def labels(self) -> np.ndarray:
+        """Same as :meth:`landmark_labels` (the attribute name the AEKF uses)."""
+        return self.landmark_labels()
 
     def trajectory(self) -> np.ndarray:
         """(n_nodes, 3) smoothed poses of all pose nodes (the whole path, re-estimated)."""

@@ -75,7 +75,7 @@ def test_static_vehicle_landmark_equals_batch_linear_kalman_filter():
     rng = np.random.default_rng(11)
     m_true = np.array([8.0, 6.0])
     x = np.zeros(3)
-    f = FastSLAM2(n_particles=5, rng=np.random.default_rng(1))
+    f = FastSLAM2(n_particles=5, rng=np.random.default_rng(1), association="known")
     zs = []
     for _ in range(400):
         z = _h(x, m_true) + rng.multivariate_normal(np.zeros(2), R_DEFAULT)
@@ -104,7 +104,7 @@ def test_proposal_samples_the_joint_ekf_pose_posterior():
     known landmark this Gaussian is the pose marginal of a joint [pose, landmark] EKF update;
     4000 samples must reproduce its mean (4 standard errors) and covariance (10 %)."""
     n = 4000
-    f = FastSLAM2(n_particles=n, rng=np.random.default_rng(5))
+    f = FastSLAM2(n_particles=n, rng=np.random.default_rng(5), association="known")
     m_true = np.array([10.0, 4.0])
     z0 = _h(np.zeros(3), m_true)
     f.update([RangeBearing(z0, R_DEFAULT, label=1)])  # exact pose: landmark from z0
@@ -144,7 +144,7 @@ def test_proposal_samples_the_joint_ekf_pose_posterior():
 
 def _loop_filter(n=50, seed=0):
     """A filter that has mapped two landmarks with some pose uncertainty."""
-    f = FastSLAM2(n_particles=n, rng=np.random.default_rng(seed))
+    f = FastSLAM2(n_particles=n, rng=np.random.default_rng(seed), association="known")
     lms = np.array([[10.0, 3.0], [12.0, -4.0]])
     rng = np.random.default_rng(seed + 100)
     x = np.zeros(3)
@@ -319,6 +319,7 @@ def test_zero_range_and_non_finite_inputs_are_rejected_at_the_boundary():
         ({"augment_gate": 1.0}, "augment_gate"),
         ({"resampler": "multinomial"}, "resampler"),
         ({"map_estimate": "mean"}, "map_estimate"),
+        ({"association": "nn"}, "association"),
     ],
 )
 def test_bad_config_rejected(kw, match):
@@ -344,3 +345,33 @@ def test_weighted_map_estimate_is_the_mixture_over_particles():
         np.einsum("i,ijk,ijl->jkl", w, d, d) + np.einsum("i,ijkl->jkl", w, f._P[:, :2]),
         atol=1e-14,
     )
+
+
+def test_association_modes_use_or_ignore_labels():
+    """'ml' ignores labels (two labels on one spot → one landmark), 'known' trusts them (two
+    landmarks) and rejects an unlabelled observation, 'auto' uses a label when present."""
+    z = [
+        RangeBearing([10.0, 0.0], R_DEFAULT, label=1),
+        RangeBearing([20.0, 0.5], R_DEFAULT, label=2),
+    ]
+    again = [RangeBearing([10.0, 0.0], R_DEFAULT, label=5)]
+    ml = FastSLAM2(n_particles=3, seed=0)
+    ml.update(z)
+    assert ml.update(again).associations.tolist() == [0]
+    assert ml.labels.tolist() == [-1, -1]
+    kn = FastSLAM2(n_particles=3, seed=0, association="known")
+    kn.update(z)
+    assert kn.update(again).new.tolist() == [True]
+    assert kn.labels.tolist() == [1, 2, 5]
+    with pytest.raises(ValueError, match="label on every observation"):
+        kn.update([RangeBearing([10.0, 0.0], R_DEFAULT)])
+    au = FastSLAM2(n_particles=3, seed=0, association="auto")
+    au.update(z)
+    assert au.update([RangeBearing([10.0, 0.0], R_DEFAULT)]).associations.tolist() == [0]
+
+
+def test_factory_builds_fastslam2_with_keyword_parameters():
+    from slam.estimators import make_estimator
+
+    f = make_estimator("fastslam2", n_particles=7, rng=np.random.default_rng(0), reject_gate=3.0)
+    assert isinstance(f, FastSLAM2) and f.n_particles == 7 and f.config.reject_gate == 3.0
