@@ -201,10 +201,10 @@ def _xy_cov_to_rb(x, y, vxx, vyy, vxy=0.0):
     rho = np.hypot(x, y)
     if np.any(rho <= 0):
         raise ValueError("detection at the sonar origin (range 0): bearing undefined")
-    j = np.zeros(x.shape + (2, 2))
+    j = np.zeros((*x.shape, 2, 2))
     j[..., 0, 0], j[..., 0, 1] = x / rho, y / rho
     j[..., 1, 0], j[..., 1, 1] = -y / rho**2, x / rho**2
-    s = np.zeros(x.shape + (2, 2))
+    s = np.zeros((*x.shape, 2, 2))
     s[..., 0, 0], s[..., 1, 1] = vxx, vyy
     s[..., 0, 1] = s[..., 1, 0] = vxy
     return rho, np.arctan2(y, x), j @ s @ np.swapaxes(j, -1, -2)
@@ -231,7 +231,7 @@ def _sss(g: SideScanGeometry, c: np.ndarray, e: np.ndarray, ref_row):
 
 def _polar(slant, theta, var_slant, var_theta, altitude, what):
     rho, drho = _horizontal(slant, altitude, what)
-    cov = np.zeros(slant.shape + (2, 2))
+    cov = np.zeros((*slant.shape, 2, 2))
     cov[:, 0, 0] = drho**2 * var_slant
     cov[:, 1, 1] = var_theta
     return rho, theta, cov
