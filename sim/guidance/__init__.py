@@ -1,0 +1,46 @@
+"""Guidance and control: PID with anti-windup, lookahead LOS path following, mission
+generators (lawnmower, loop, straight line, hold), per-vehicle gain design and the
+autopilot that turns a mission and the vehicle state into a body wrench demand."""
+
+from sim.guidance.autopilot import Autopilot, MissionStatus
+from sim.guidance.gains import (
+    NOMINAL_SPEED,
+    AutopilotGains,
+    VehiclePlant,
+    design_gains,
+    max_wrench,
+)
+from sim.guidance.los import LOSResult, integral_los_rate, los_guidance, wrap
+from sim.guidance.missions import (
+    Mission,
+    WorldBounds,
+    hold,
+    lawnmower,
+    lawnmower_spacing,
+    loop,
+    straight_line,
+)
+from sim.guidance.pid import PID, PIDGains
+
+__all__ = [
+    "NOMINAL_SPEED",
+    "PID",
+    "Autopilot",
+    "AutopilotGains",
+    "LOSResult",
+    "Mission",
+    "MissionStatus",
+    "PIDGains",
+    "VehiclePlant",
+    "WorldBounds",
+    "design_gains",
+    "hold",
+    "integral_los_rate",
+    "lawnmower",
+    "lawnmower_spacing",
+    "loop",
+    "los_guidance",
+    "max_wrench",
+    "straight_line",
+    "wrap",
+]

@@ -1,0 +1,221 @@
+"""Controller gains derived from a vehicle's rigid-body + added mass, damping, restoring
+stiffness and actuator authority.
+
+Per degree of freedom the plant is  M ν̇ = τ − (d_l + d_q |ν|) ν − k x  (Fossen 2011,
+diagonal model), with M = m_RB + m_A. The design rules (Fossen 2011 §12.2.2 pole placement
+for a mass–damper–spring plant; Åström & Murray §11.3 for the PI):
+
+* speed (surge, first order): PI with pole–zero cancellation, kp = M ω_u,
+  ki = kp d / M with d = d_l + 2 d_q U the damping linearised at the cruise speed U; the
+  closed loop is then first order with time constant 1/ω_u. ω_u = clip(2 d / M, 0.1, 1)
+  (twice the open-loop bandwidth). Feedforward X_ff = d_l u_d + d_q u_d|u_d|.
+* heading, depth (heave), pitch, roll (second order): PID with kp = M ω_n² − k,
+  kd = 2 ζ ω_n M − d, ki = kp ω_n / 10, ζ = 1. ω_n is set by actuator authority:
+  ω_n = sqrt(τ_max / (M e_sat)) — the P term alone just saturates the actuator at an
+  error e_sat (0.5 rad heading, 2 m depth, 0.3 rad pitch/roll) — clipped to
+  [0.1, 1.0] rad/s (the thrusters' ~0.2 s lag bounds the loop bandwidth).
+* depth of a vehicle without heave authority (torpedo): outer loop depth → pitch
+  demand θ_d = clip(kp_z e + ki_z ∫e, ±θ_max), kp_z = 1/Δ_z rad/m with the vertical
+  lookahead Δ_z = 2 L, ki_z = kp_z (U/Δ_z)/10 (trims out residual buoyancy).
+* LOS lookahead Δ = clip(3 L, 3, 10) m (Fossen recommends 1.5–2.5 L for ships; a little
+  more for slow, under-actuated AUVs), cruise speed = min(nominal, 0.8 U_max) with
+  U_max from d_l U + d_q U² = X_max.
+
+τ_max per DOF is what the vehicle's thrust allocation (least squares over its controlled
+DOFs, as sim.thrusters.ThrusterBank.allocate) delivers for a pure demand in that DOF
+before any channel saturates, fins evaluated at the cruise speed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.guidance.pid import PIDGains
+
+__all__ = [
+    "NOMINAL_SPEED",
+    "AutopilotGains",
+    "VehiclePlant",
+    "design_gains",
+    "max_wrench",
+]
+
+DOF = ("X", "Y", "Z", "K", "M", "N")
+GRAVITY = 9.80665
+
+#: nominal survey speed per vehicle kind, m/s (capped by thrust in design_gains)
+NOMINAL_SPEED = {"alister9": 1.5, "ixn": 1.0, "naiad": 0.6, "saga": 0.5, "rexrov": 0.5}
+
+
+@dataclass(frozen=True)
+class VehiclePlant:
+    """Diagonal plant of one vehicle, body frame (x fwd, y port, z up).
+
+    kind; length m; inertia (6,) M_RB + M_A; linear_damping, quadratic_damping (6,);
+    stiffness (6,) restoring (roll, pitch: ρ g V BG), N·m/rad; net_buoyancy B − W, N;
+    max_effort (6,) N / N·m (inf = unknown); controlled (6,) bool; cruise_speed m/s.
+    """
+
+    kind: str
+    length: float
+    inertia: np.ndarray
+    linear_damping: np.ndarray
+    quadratic_damping: np.ndarray
+    stiffness: np.ndarray
+    net_buoyancy: float
+    max_effort: np.ndarray
+    controlled: np.ndarray
+    cruise_speed: float
+
+    @classmethod
+    def from_hydro(
+        cls,
+        kind: str,
+        length: float,
+        hydro,
+        max_effort,
+        controlled,
+        rho: float = 1025.0,
+        cruise_speed: float | None = None,
+    ) -> VehiclePlant:
+        """From a ``sim.hydrodynamics.HydroParams`` (mass, inertia (3,), volume, r_cb,
+        added_mass, linear_damping, quadratic_damping)."""
+        m_rb = np.concatenate([[hydro.mass] * 3, np.asarray(hydro.inertia, float)])
+        B = rho * GRAVITY * hydro.volume
+        bg = float(hydro.r_cb[2])
+        k = np.zeros(6)
+        k[3] = k[4] = max(0.0, B * bg)
+        max_effort = np.asarray(max_effort, float)
+        dl = np.asarray(hydro.linear_damping, float)
+        dq = np.asarray(hydro.quadratic_damping, float)
+        u_max = _max_speed(dl[0], dq[0], max_effort[0])
+        u = NOMINAL_SPEED.get(kind, 1.0) if cruise_speed is None else cruise_speed
+        return cls(
+            kind=kind,
+            length=float(length),
+            inertia=m_rb + np.asarray(hydro.added_mass, float),
+            linear_damping=dl,
+            quadratic_damping=dq,
+            stiffness=k,
+            net_buoyancy=B - hydro.mass * GRAVITY,
+            max_effort=max_effort,
+            controlled=np.asarray(controlled, bool),
+            cruise_speed=float(min(u, 0.8 * u_max)),
+        )
+
+
+def _max_speed(dl: float, dq: float, x_max: float) -> float:
+    if not math.isfinite(x_max):
+        return math.inf
+    if dq <= 0:
+        return x_max / dl if dl > 0 else math.inf
+    return (-dl + math.sqrt(dl * dl + 4 * dq * x_max)) / (2 * dq)
+
+
+def max_wrench(specs, controlled, speed: float) -> np.ndarray:
+    """(6,) largest pure demand per DOF that the least-squares allocation over the
+    ``controlled`` DOFs maps to channel commands within [-1, 1] (0 for uncontrolled).
+
+    specs: sequence of ``sim.thrusters.ThrusterSpec``; fins scaled by speed|speed|.
+    """
+    dofs = np.asarray(controlled, bool)
+    cols = np.array([s.column() for s in specs]).T  # (6, k)
+    fin = np.array([s.kind == "fin" for s in specs])
+    cols[:, fin] *= speed * abs(speed)
+    fwd = np.array([s.max_forward for s in specs])
+    rev = np.array([s.max_reverse for s in specs])
+    pinv = np.linalg.pinv(cols[dofs], rcond=1e-6)  # (k, ndof)
+    out = np.zeros(6)
+    for j, dof_index in enumerate(np.flatnonzero(dofs)):
+        f = pinv[:, j]
+        lim = np.where(f >= 0, fwd, np.where(fin, fwd, rev))
+        nz = np.abs(f) > 1e-12
+        out[dof_index] = float(np.min(lim[nz] / np.abs(f[nz]))) if nz.any() else 0.0
+    return out
+
+
+@dataclass(frozen=True)
+class AutopilotGains:
+    """Everything the autopilot needs; see the module docstring for the derivation.
+
+    surge (speed), heading, depth (heave force), pitch, roll, station_surge and sway
+    (station keeping on the body-frame position error, N per m):
+    PIDGains with output limits in N / N·m. depth_to_pitch: PIDGains from depth error (m)
+    to pitch demand (rad), used when ``depth_by_pitch``. lookahead m (LOS Δ), cruise_speed
+    m/s, surge damping (d_l, d_q) for the speed feedforward, net_buoyancy N (heave
+    feedforward −(B − W))."""
+
+    surge: PIDGains
+    heading: PIDGains
+    depth: PIDGains
+    pitch: PIDGains
+    roll: PIDGains
+    sway: PIDGains
+    station_surge: PIDGains
+    depth_to_pitch: PIDGains
+    depth_by_pitch: bool
+    lookahead: float
+    cruise_speed: float
+    surge_damping: tuple[float, float]
+    net_buoyancy: float = 0.0
+
+
+def _second_order(
+    M: float, d: float, k: float, tau_max: float, e_sat: float, integral: bool = True
+) -> PIDGains:
+    if math.isfinite(tau_max) and tau_max > 0:
+        wn = math.sqrt(tau_max / (M * e_sat))
+    else:
+        wn = 0.5
+    wn = min(max(wn, 0.1), 1.0)
+    kp = max(M * wn * wn - k, 0.05 * M * wn * wn)
+    kd = max(2.0 * wn * M - d, 0.0)
+    ki = kp * wn / 10.0 if integral else 0.0
+    lim = tau_max if math.isfinite(tau_max) and tau_max > 0 else math.inf
+    return PIDGains(kp=kp, ki=ki, kd=kd, u_min=-lim, u_max=lim)
+
+
+def design_gains(plant: VehiclePlant) -> AutopilotGains:
+    """Gains for ``plant`` by the rules of the module docstring."""
+    M, dl, dq, k = plant.inertia, plant.linear_damping, plant.quadratic_damping, plant.stiffness
+    tmax = np.where(plant.controlled, plant.max_effort, 0.0)
+    U = plant.cruise_speed
+    # surge PI with pole-zero cancellation
+    d_u = dl[0] + 2.0 * dq[0] * U
+    w_u = min(max(2.0 * d_u / M[0], 0.1), 1.0)
+    kp_u = M[0] * w_u
+    x_lim = tmax[0] if tmax[0] > 0 else math.inf
+    surge = PIDGains(kp=kp_u, ki=kp_u * d_u / M[0], u_min=-x_lim, u_max=x_lim)
+    r_ref = 0.2  # rad/s, linearisation rate for rotational damping
+    w_ref = 0.2  # m/s, for heave/sway
+    heading = _second_order(M[5], dl[5] + 2 * dq[5] * r_ref, k[5], tmax[5], 0.5)
+    depth = _second_order(M[2], dl[2] + 2 * dq[2] * w_ref, k[2], tmax[2], 2.0)
+    sway = _second_order(M[1], dl[1] + 2 * dq[1] * w_ref, k[1], tmax[1], 2.0)
+    station_surge = _second_order(M[0], dl[0] + 2 * dq[0] * w_ref, k[0], tmax[0], 2.0)
+    pitch = _second_order(M[4], dl[4] + 2 * dq[4] * r_ref, k[4], tmax[4], 0.3, integral=False)
+    roll = _second_order(M[3], dl[3] + 2 * dq[3] * r_ref, k[3], tmax[3], 0.3, integral=False)
+    depth_by_pitch = not plant.controlled[2]
+    dz = 2.0 * plant.length
+    kp_z = 1.0 / dz
+    theta_max = 0.35
+    depth_to_pitch = PIDGains(
+        kp=kp_z, ki=kp_z * (max(U, 0.1) / dz) / 10.0, u_min=-theta_max, u_max=theta_max
+    )
+    return AutopilotGains(
+        surge=surge,
+        heading=heading,
+        depth=depth,
+        pitch=pitch,
+        roll=roll,
+        sway=sway,
+        station_surge=station_surge,
+        depth_to_pitch=depth_to_pitch,
+        depth_by_pitch=bool(depth_by_pitch),
+        lookahead=float(min(max(3.0 * plant.length, 3.0), 10.0)),
+        cruise_speed=U,
+        surge_damping=(float(dl[0]), float(dq[0])),
+        net_buoyancy=float(plant.net_buoyancy),
+    )
