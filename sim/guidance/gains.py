@@ -41,6 +41,7 @@ __all__ = [
     "VehiclePlant",
     "design_gains",
     "max_wrench",
+    "max_wrench_from_columns",
 ]
 
 DOF = ("X", "Y", "Z", "K", "M", "N")
@@ -121,17 +122,30 @@ def max_wrench(specs, controlled, speed: float) -> np.ndarray:
 
     specs: sequence of ``sim.thrusters.ThrusterSpec``; fins scaled by speed|speed|.
     """
+    return max_wrench_from_columns(
+        np.array([s.column() for s in specs]),
+        np.array([s.kind == "fin" for s in specs]),
+        np.array([s.max_forward for s in specs]),
+        np.array([s.max_reverse for s in specs]),
+        controlled,
+        speed,
+    )
+
+
+def max_wrench_from_columns(columns, is_fin, max_forward, max_reverse, controlled, speed):
+    """As :func:`max_wrench` from the channel arrays of a ``ThrusterBank``: columns (k, 6)
+    [d; r × d], is_fin (k,), max_forward / max_reverse (k,)."""
     dofs = np.asarray(controlled, bool)
-    cols = np.array([s.column() for s in specs]).T  # (6, k)
-    fin = np.array([s.kind == "fin" for s in specs])
+    cols = np.asarray(columns, float).T.copy()  # (6, k)
+    fin = np.asarray(is_fin, bool)
     cols[:, fin] *= speed * abs(speed)
-    fwd = np.array([s.max_forward for s in specs])
-    rev = np.array([s.max_reverse for s in specs])
+    fwd = np.asarray(max_forward, float)
+    rev = np.asarray(max_reverse, float)
     pinv = np.linalg.pinv(cols[dofs], rcond=1e-6)  # (k, ndof)
     out = np.zeros(6)
     for j, dof_index in enumerate(np.flatnonzero(dofs)):
         f = pinv[:, j]
-        lim = np.where(f >= 0, fwd, np.where(fin, fwd, rev))
+        lim = np.where((f >= 0) | fin, fwd, rev)
         nz = np.abs(f) > 1e-12
         out[dof_index] = float(np.min(lim[nz] / np.abs(f[nz]))) if nz.any() else 0.0
     return out
