@@ -1,0 +1,153 @@
+"""Thrusters and control surfaces: thrust curve, saturation, first-order lag, allocation.
+
+Every actuator channel of every vehicle in a world lives in one ``ThrusterBank`` (flat
+arrays), so a physics step costs a handful of numpy operations for all vehicles.
+
+Propeller channel (Fossen 2011 §6.7; Yoerger, Cooke & Slotine 1990): the normalized
+command u ∈ [−1, 1] (saturated by clipping) sets the demanded normalized shaft speed;
+the actual speed n follows it with a first-order lag of time constant T (discretized
+exactly for a command held over the step: n ← u + (n − u) e^(−dt/T)), and thrust is the
+quadratic propeller curve  F = F_fwd n|n| (n ≥ 0) or F_rev n|n| (n < 0) along the
+thruster's axis (the MJCF site's z axis).
+
+Fin channel (pair of control surfaces moving together): u sets the demanded deflection
+δ = u δ_max with the same lag; the lift  F = ½ ρ S C_Lα δ u_r|u_r|  acts along the
+site's z axis (the lift direction for positive deflection), u_r the surge speed through
+the water. ``max_forward`` stores ½ ρ S C_Lα δ_max in N/(m/s)².
+
+Allocation (``allocate``): least-squares (pseudo-inverse) solution of B_eff f = τ over the
+degrees of freedom the vehicle controls, B_eff the 6×k configuration matrix (columns
+[d; r × d] per channel, fin columns scaled by u_r|u_r|); the channel forces are mapped
+back through the inverse thrust curve to commands and clipped to [−1, 1].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+KINDS = ("propeller", "fin")
+
+
+@dataclass(frozen=True)
+class ThrusterSpec:
+    """One actuator channel. position/direction are body-frame (filled from the MJCF site).
+
+    kind            : "propeller" or "fin".
+    max_forward     : propeller: thrust at u = +1, N; fin: ½ρ S C_Lα δ_max, N/(m/s)².
+    max_reverse     : propeller: thrust magnitude at u = −1, N (fins: same as forward).
+    time_constant   : first-order lag of shaft speed / fin deflection, s.
+    """
+
+    name: str
+    kind: str
+    max_forward: float
+    max_reverse: float
+    time_constant: float
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    lift_gain: float = 0.0  # fins: ½ ρ S C_Lα, N/(m/s)² per rad of incidence
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(
+                f"thruster {self.name!r} kind must be one of {KINDS}, got {self.kind!r}"
+            )
+        for f in ("max_forward", "max_reverse", "time_constant"):
+            v = getattr(self, f)
+            if not np.isfinite(v) or v <= 0:
+                raise ValueError(f"thruster {self.name!r} {f} must be > 0, got {v!r}")
+        d = np.asarray(self.direction, dtype=float)
+        if d.shape != (3,) or not np.isfinite(d).all() or np.linalg.norm(d) < 1e-9:
+            raise ValueError(
+                f"thruster {self.name!r} direction must be a non-zero 3-vector, got {self.direction!r}"
+            )
+
+    def column(self) -> np.ndarray:
+        """Configuration column [d; r × d] (6,) per unit channel force."""
+        d = np.asarray(self.direction, dtype=float)
+        d = d / np.linalg.norm(d)
+        return np.concatenate([d, np.cross(np.asarray(self.position, dtype=float), d)])
+
+
+class ThrusterBank:
+    """All channels of all vehicles; ``owner[i]`` is the vehicle index of channel i."""
+
+    def __init__(self, specs_per_vehicle: list[list[ThrusterSpec]], dt: float):
+        specs = [s for vs in specs_per_vehicle for s in vs]
+        self.n_vehicles = len(specs_per_vehicle)
+        self.n = len(specs)
+        self.owner = np.array(
+            [i for i, vs in enumerate(specs_per_vehicle) for _ in vs], dtype=np.intp
+        )
+        self.offsets = np.cumsum([0] + [len(vs) for vs in specs_per_vehicle])
+        self.is_fin = np.array([s.kind == "fin" for s in specs], dtype=bool)
+        self.any_fin = bool(self.is_fin.any())
+        self.f_fwd = np.array([s.max_forward for s in specs])
+        self.f_rev = np.array([s.max_reverse for s in specs])
+        self.tc = np.array([s.time_constant for s in specs])
+        self.lift_gain = np.array([s.lift_gain for s in specs])
+        self.set_dt(dt)
+        self.command = np.zeros(self.n)
+        self.level = np.zeros(self.n)  # lagged normalized shaft speed / deflection
+        self.force = np.zeros(self.n)
+        cols = [s.column() for s in specs]
+        self.columns = np.array(cols).reshape(self.n, 6)
+        # stacked configuration: tau (N,6) = sum over channels of column * force
+        self._scatter = np.zeros((self.n_vehicles, self.n))
+        self._scatter[self.owner, np.arange(self.n)] = 1.0
+
+    def set_dt(self, dt: float) -> None:
+        self.decay = np.exp(-float(dt) / self.tc)
+
+    def set_commands(self, vehicle: int, u: np.ndarray) -> None:
+        lo, hi = self.offsets[vehicle], self.offsets[vehicle + 1]
+        u = np.asarray(u, dtype=float).reshape(-1)
+        if u.shape != (hi - lo,) or not np.all(np.isfinite(u)):
+            raise ValueError(
+                f"thruster commands must be {hi - lo} finite numbers in [-1, 1], got {u!r}"
+            )
+        self.command[lo:hi] = np.clip(u, -1.0, 1.0)
+
+    def step(self, nu_r: np.ndarray | None) -> np.ndarray:
+        """Advance the lag one step; return the per-vehicle body wrench (N, 6).
+
+        nu_r (N, 6): body-frame velocity relative to the water (needed only when fins
+        exist). A fin's lift is F = ½ρ S C_Lα (δ u_r|u_r| − |u_r| w_f), where
+        w_f = n·(v_r + ω × r) = column · ν_r is the flow across the fin (incidence
+        α ≈ w_f / u_r): deflection lift plus the passive stabilizing lift of the fin."""
+        c = self.command
+        lv = c + (self.level - c) * self.decay
+        self.level = lv
+        f = np.where(lv >= 0.0, self.f_fwd, self.f_rev) * lv * np.abs(lv)
+        if self.any_fin and nu_r is not None:
+            nu = nu_r[self.owner]  # (n, 6)
+            u = nu[:, 0]
+            cross = (self.columns * nu).sum(axis=1)
+            fin = self.f_fwd * lv * u * np.abs(u) - self.lift_gain * np.abs(u) * cross
+            f = np.where(self.is_fin, fin, f)
+        self.force = f
+        return self._scatter @ (self.columns * f[:, None])
+
+    def allocate(
+        self, vehicle: int, tau: np.ndarray, dofs: np.ndarray, speed_sq: float
+    ) -> np.ndarray:
+        """Commands (k,) in [−1, 1] for a body wrench demand tau (6,) of one vehicle.
+
+        dofs: bool (6,) mask of the degrees of freedom the vehicle controls (the others
+        are left to the least-squares residual instead of distorting the controlled ones).
+        """
+        lo, hi = self.offsets[vehicle], self.offsets[vehicle + 1]
+        cols = self.columns[lo:hi].T.copy()  # (6, k)
+        fin = self.is_fin[lo:hi]
+        cols[:, fin] *= speed_sq
+        b = cols[dofs]
+        f = np.linalg.pinv(b, rcond=1e-6) @ np.asarray(tau, dtype=float)[dofs]
+        # inverse thrust curve: propellers F = F_max n|n|; fins F = g δ u_r|u_r| (already in cols)
+        u = np.empty(hi - lo)
+        prop = ~fin
+        fmax = np.where(f[prop] >= 0.0, self.f_fwd[lo:hi][prop], self.f_rev[lo:hi][prop])
+        u[prop] = np.sign(f[prop]) * np.sqrt(np.abs(f[prop]) / fmax)
+        u[fin] = f[fin] / self.f_fwd[lo:hi][fin]
+        return np.clip(u, -1.0, 1.0)

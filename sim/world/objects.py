@@ -1,0 +1,245 @@
+"""The seabed object library: class name, acoustic reflectivity and generated geometry.
+
+Geometry is generated in code with trimesh from a few parameters and a seed, and cached
+on disk (``sim.world.cache``), never committed. Each generator returns a mesh in the
+object's local frame: x along its length, z up, the lowest point at z = 0 (it rests on
+the seabed; ``burial`` sinks it).
+
+Reflectivity is the linear backscatter strength factor in [0, 1] the sonar multiplies
+its echo by (steel = 1). The ranking follows published backscatter strengths at
+moderate grazing angles (Lurton 2010, *An Introduction to Underwater Acoustics*,
+ch. 3.6; APL-UW 1994 high-frequency model): steel and concrete structures are strong
+(near-specular, −5…0 dB), rock −15…−10 dB, rubber/wood/plastic weaker, medium sand
+−25…−20 dB. The absolute values are an assumption of this project; the sonar helper
+calibrates overall level.
+
+The mannequin is articulated: a kinematic tree of capsules with hinge joints (spring-
+loaded to a seeded pose, gravity-compensated as a flooded plastic body resting on the
+floor), built straight into the MJCF by the world builder.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from sim.world.cache import cached_mesh
+
+SEABED_REFLECTIVITY = 0.3  # medium sand
+VEHICLE_REFLECTIVITY = 0.8  # painted aluminium / composite hull
+
+
+@dataclass(frozen=True)
+class ObjectClass:
+    class_name: str
+    reflectivity: float
+    default_size: tuple[float, float, float]  # bbox L, W, H, m
+    articulated: bool = False
+    rgba: tuple[float, float, float, float] = (0.5, 0.5, 0.5, 1.0)
+
+
+OBJECT_CLASSES: dict[str, ObjectClass] = {
+    "shipwreck": ObjectClass("shipwreck", 1.0, (20.0, 5.0, 4.0), rgba=(0.45, 0.3, 0.2, 1)),
+    "tree_branch": ObjectClass("tree_branch", 0.35, (3.0, 1.5, 0.3), rgba=(0.35, 0.25, 0.15, 1)),
+    "mannequin": ObjectClass("mannequin", 0.25, (1.75, 0.5, 0.25), True, rgba=(0.9, 0.8, 0.7, 1)),
+    "rock": ObjectClass("rock", 0.6, (1.2, 0.9, 0.6), rgba=(0.4, 0.4, 0.38, 1)),
+    "pipe": ObjectClass("pipe", 0.9, (10.0, 0.5, 0.5), rgba=(0.3, 0.3, 0.3, 1)),
+    "tyre": ObjectClass("tyre", 0.5, (0.7, 0.7, 0.22), rgba=(0.1, 0.1, 0.1, 1)),
+    "sensor_node": ObjectClass("sensor_node", 0.85, (0.5, 0.5, 0.8), rgba=(0.9, 0.5, 0.1, 1)),
+}
+OBJECT_KINDS = tuple(OBJECT_CLASSES)
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """One seabed object.
+
+    kind         : one of OBJECT_KINDS.
+    position_xy  : (x, y) world position of its base centre, m (z follows the seabed).
+    yaw_deg      : heading of its local x axis, counter-clockwise from east.
+    size         : (L, W, H) bounding box, m (None -> the class default).
+    burial       : fraction of the height sunk into the seabed, [0, 0.9].
+    seed         : seed of its shape.
+    reflectivity : override of the class reflectivity, [0, 1].
+    """
+
+    kind: str
+    position_xy: tuple[float, float] = (0.0, 0.0)
+    yaw_deg: float = 0.0
+    size: tuple[float, float, float] | None = None
+    burial: float = 0.0
+    seed: int = 0
+    reflectivity: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in OBJECT_CLASSES:
+            raise ValueError(f"object kind must be one of {OBJECT_KINDS}, got {self.kind!r}")
+        p = np.asarray(self.position_xy, dtype=float)
+        if p.shape != (2,) or not np.isfinite(p).all():
+            raise ValueError(
+                f"object position_xy must be 2 finite numbers, got {self.position_xy!r}"
+            )
+        if not np.isfinite(self.yaw_deg):
+            raise ValueError(f"object yaw_deg must be finite, got {self.yaw_deg!r}")
+        if self.size is not None:
+            s = np.asarray(self.size, dtype=float)
+            if s.shape != (3,) or not np.isfinite(s).all() or np.any(s <= 0):
+                raise ValueError(
+                    f"object size must be 3 positive lengths (L, W, H) in m, got {self.size!r}"
+                )
+        if not 0.0 <= float(self.burial) <= 0.9:
+            raise ValueError(f"object burial must be in [0, 0.9], got {self.burial!r}")
+        if self.reflectivity is not None and not 0.0 <= float(self.reflectivity) <= 1.0:
+            raise ValueError(f"object reflectivity must be in [0, 1], got {self.reflectivity!r}")
+
+    @property
+    def object_class(self) -> ObjectClass:
+        return OBJECT_CLASSES[self.kind]
+
+    @property
+    def bbox(self) -> tuple[float, float, float]:
+        return tuple(float(v) for v in (self.size or self.object_class.default_size))
+
+
+def _fit(mesh: trimesh.Trimesh, size: tuple[float, float, float]) -> trimesh.Trimesh:
+    """Scale to the bbox size and put the base centre at the origin (lowest point z = 0)."""
+    lo, hi = mesh.bounds
+    ext = np.maximum(hi - lo, 1e-9)
+    mesh.apply_translation(-(lo + hi) / 2)
+    mesh.apply_scale(1.0)  # keep trimesh caches consistent
+    mesh.vertices = mesh.vertices * (np.asarray(size) / ext)
+    mesh.apply_translation([0, 0, -mesh.bounds[0][2]])
+    return mesh
+
+
+def _shipwreck(size, rng: np.random.Generator) -> trimesh.Trimesh:
+    L, B, H = size
+    hull_h = 0.6 * H
+    hull = trimesh.creation.capsule(height=1.0, radius=0.5, count=[24, 24])
+    hull.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
+    hull.vertices = hull.vertices * [L / 2.0, B, 2 * hull_h]
+    v = hull.vertices.copy()
+    v[:, 2] = np.minimum(v[:, 2], 0.0)  # flatten the upper half into the deck (stays watertight)
+    bow = np.clip((v[:, 0] - 0.15 * L) / (0.35 * L), 0, 1)  # sharpen the bow
+    v[:, 1] *= 1.0 - 0.85 * bow**1.5
+    hull.vertices = v
+    hull.apply_translation([0, 0, hull_h])
+    house = trimesh.creation.box([0.22 * L, 0.55 * B, 0.25 * H])
+    house.apply_translation([-0.18 * L, 0, hull_h + 0.125 * H])
+    mast = trimesh.creation.cylinder(radius=0.02 * B + 0.05, height=0.35 * H)
+    mast.apply_translation([0.12 * L, 0, hull_h + 0.175 * H])
+    m = trimesh.util.concatenate([hull, house, mast])
+    # wreck lying listed to one side, a little trimmed
+    roll = np.deg2rad(rng.uniform(8, 25)) * rng.choice([-1, 1])
+    pitch = np.deg2rad(rng.uniform(-3, 3))
+    m.apply_transform(trimesh.transformations.euler_matrix(roll, pitch, 0.0))
+    return _fit(m, size)
+
+
+def _tree_branch(size, rng) -> trimesh.Trimesh:
+    L, _, H = size
+    r0 = 0.5 * H
+    parts = [trimesh.creation.cylinder(radius=r0, segment=[[0, 0, 0], [L, 0, 0]], sections=10)]
+    for _ in range(int(rng.integers(2, 5))):
+        s = rng.uniform(0.15, 0.8) * L
+        ang = rng.uniform(0.35, 0.9) * rng.choice([-1, 1])
+        ln = rng.uniform(0.25, 0.5) * L
+        tip = [s + ln * np.cos(ang), ln * np.sin(ang), rng.uniform(0, 0.5) * r0]
+        parts.append(
+            trimesh.creation.cylinder(
+                radius=r0 * rng.uniform(0.4, 0.7), segment=[[s, 0, 0], tip], sections=8
+            )
+        )
+    return _fit(trimesh.util.concatenate(parts), size)
+
+
+def _rock(size, rng) -> trimesh.Trimesh:
+    m = trimesh.creation.icosphere(subdivisions=3)
+    d = rng.normal(size=(6, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    w = rng.uniform(-0.12, 0.12, 6)
+    v = m.vertices
+    r = 1.0 + (np.abs(v @ d.T) ** 2 * w).sum(1) + 0.04 * rng.standard_normal(len(v))
+    v = v * r[:, None]
+    v[:, 2] = np.maximum(v[:, 2], -0.4)  # flat, settled underside
+    m.vertices = v
+    return _fit(m, size)
+
+
+def _pipe(size, rng) -> trimesh.Trimesh:
+    L, W, _ = size
+    m = trimesh.creation.annulus(r_min=0.42 * W, r_max=0.5 * W, height=L, sections=24)
+    m.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
+    return _fit(m, size)
+
+
+def _tyre(size, rng) -> trimesh.Trimesh:
+    L, _, H = size
+    m = trimesh.creation.torus(major_radius=0.5 * L - 0.5 * H, minor_radius=0.5 * H)
+    tilt = np.deg2rad(rng.uniform(0, 10))
+    m.apply_transform(trimesh.transformations.rotation_matrix(tilt, [1, 0, 0]))
+    return _fit(m, size)
+
+
+def _sensor_node(size, rng) -> trimesh.Trimesh:
+    base = trimesh.creation.cylinder(radius=0.5, height=0.2, sections=24)
+    base.apply_translation([0, 0, 0.1])
+    mast = trimesh.creation.cylinder(radius=0.06, height=0.6, sections=12)
+    mast.apply_translation([0, 0, 0.5])
+    buoy = trimesh.creation.icosphere(subdivisions=2, radius=0.18)
+    buoy.apply_translation([0, 0, 0.82])
+    return _fit(trimesh.util.concatenate([base, mast, buoy]), size)
+
+
+_GENERATORS = {
+    "shipwreck": _shipwreck,
+    "tree_branch": _tree_branch,
+    "rock": _rock,
+    "pipe": _pipe,
+    "tyre": _tyre,
+    "sensor_node": _sensor_node,
+}
+
+
+def object_mesh(spec: ObjectSpec) -> tuple[np.ndarray, np.ndarray]:
+    """Local-frame (vertices (V,3), faces (F,3) int32) of a static object, cached."""
+    if spec.object_class.articulated:
+        raise ValueError(f"object kind {spec.kind!r} is articulated and has no single mesh")
+    params = {"kind": spec.kind, "size": list(spec.bbox), "seed": int(spec.seed)}
+
+    def build():
+        m = _GENERATORS[spec.kind](spec.bbox, np.random.default_rng(spec.seed))
+        return np.asarray(m.vertices), np.asarray(m.faces)
+
+    return cached_mesh(params, build)
+
+
+# Mannequin: (name, parent, pos in parent (m, standing pose, z up), capsule from-to in body, radius)
+MANNEQUIN_SEGMENTS = (
+    ("pelvis", None, (0.0, 0.0, 0.0), ((0, -0.09, 0), (0, 0.09, 0)), 0.09),
+    ("torso", "pelvis", (0.0, 0.0, 0.08), ((0, 0, 0), (0, 0, 0.42)), 0.12),
+    ("head", "torso", (0.0, 0.0, 0.5), ((0, 0, 0), (0, 0, 0.14)), 0.1),
+    ("upper_arm_l", "torso", (0.0, 0.2, 0.4), ((0, 0, 0), (0, 0, -0.28)), 0.045),
+    ("lower_arm_l", "upper_arm_l", (0.0, 0.0, -0.3), ((0, 0, 0), (0, 0, -0.27)), 0.04),
+    ("upper_arm_r", "torso", (0.0, -0.2, 0.4), ((0, 0, 0), (0, 0, -0.28)), 0.045),
+    ("lower_arm_r", "upper_arm_r", (0.0, 0.0, -0.3), ((0, 0, 0), (0, 0, -0.27)), 0.04),
+    ("thigh_l", "pelvis", (0.0, 0.09, -0.05), ((0, 0, 0), (0, 0, -0.4)), 0.07),
+    ("shin_l", "thigh_l", (0.0, 0.0, -0.42), ((0, 0, 0), (0, 0, -0.4)), 0.055),
+    ("thigh_r", "pelvis", (0.0, -0.09, -0.05), ((0, 0, 0), (0, 0, -0.4)), 0.07),
+    ("shin_r", "thigh_r", (0.0, 0.0, -0.42), ((0, 0, 0), (0, 0, -0.4)), 0.055),
+)
+# hinge axis (in the segment frame) and pose range (rad) of each joint
+MANNEQUIN_JOINTS = {
+    "torso": ((0, 1, 0), (-0.3, 0.3)),
+    "head": ((0, 1, 0), (-0.5, 0.5)),
+    "upper_arm_l": ((1, 0, 0), (0.1, 1.4)),
+    "lower_arm_l": ((0, 1, 0), (-1.5, 0.0)),
+    "upper_arm_r": ((1, 0, 0), (-1.4, -0.1)),
+    "lower_arm_r": ((0, 1, 0), (-1.5, 0.0)),
+    "thigh_l": ((1, 0, 0), (0.0, 0.4)),
+    "shin_l": ((0, 1, 0), (0.0, 1.2)),
+    "thigh_r": ((1, 0, 0), (-0.4, 0.0)),
+    "shin_r": ((0, 1, 0), (0.0, 1.2)),
+}
