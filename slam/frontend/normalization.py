@@ -237,6 +237,7 @@ def mira_normalize(
     fit_start: int | str = "auto",
     floor: float = 1e-3,
     signed: bool = False,
+    blend: bool = True,
 ) -> MiraResult:
     """MIRA-normalize a side-scan waterfall (thesis eqs. 4.4–4.5).
 
@@ -253,6 +254,8 @@ def mira_normalize(
     floor : f is clipped below at ``floor`` × max f over the side, so far-range samples
         of a steeply decaying model are not divided by ~0.
     signed : allow negative amplitudes (see :func:`fit_mixed_exponential`).
+    blend : with ``block``, interpolate the models linearly between block centres (no
+        seams at block edges); False applies each block's model to its rows only.
 
     Returns MiraResult. Raises ValueError on bad input (non-2-D, odd width, non-finite,
     ping out of range, block < 1, average < 1).
@@ -284,21 +287,31 @@ def mira_normalize(
     z = np.arange(s, dtype=np.float64)
     out = np.empty_like(img)
     fits_p, fits_s = [], []
+    models = {"port": [], "stbd": []}
     for (r0, r1), k in zip(rows, centres, strict=True):
         sl = slice(int(r0), int(r1))
-        for side, fits, cols in (
-            (port, fits_p, slice(s - 1, None, -1)),
-            (stbd, fits_s, slice(s, None)),
-        ):
+        for name, side, fits in (("port", port, fits_p), ("stbd", stbd, fits_s)):
             fit = _fit_profile(side, sl, int(k), average, fit_start, signed)
             f = fit(z)
-            f = np.maximum(f, floor * max(float(f.max()), 1e-30))
-            norm = (side[sl] / f[None, :]).astype(np.float32)
-            if cols.step == -1:
-                out[sl, :s] = norm[:, ::-1]
-            else:
-                out[sl, s:] = norm
+            models[name].append(np.maximum(f, floor * max(float(f.max()), 1e-30)))
             fits.append(fit)
+    for name, side in (("port", port), ("stbd", stbd)):
+        f_blocks = np.asarray(models[name])  # (n_blocks, S)
+        if blend and f_blocks.shape[0] > 1:
+            # linear interpolation between block centres (constant beyond the end ones)
+            r = np.arange(p, dtype=np.float64)
+            i1 = np.clip(np.searchsorted(centres, r), 1, centres.size - 1)
+            i0 = i1 - 1
+            w = np.clip((r - centres[i0]) / (centres[i1] - centres[i0]), 0.0, 1.0)[:, None]
+            f_rows = (1.0 - w) * f_blocks[i0] + w * f_blocks[i1]
+        else:
+            block_of_row = np.repeat(np.arange(rows.shape[0]), rows[:, 1] - rows[:, 0])
+            f_rows = f_blocks[block_of_row]
+        norm = (side / f_rows).astype(np.float32)
+        if name == "port":
+            out[:, :s] = norm[:, ::-1]
+        else:
+            out[:, s:] = norm
     return MiraResult(normalized=out, port=tuple(fits_p), starboard=tuple(fits_s), block_rows=rows)
 
 

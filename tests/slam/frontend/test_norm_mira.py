@@ -170,3 +170,19 @@ def test_dcp_range_and_constant_image(rng):
         dcp_normalize(np.zeros((8, 8)))
     with pytest.raises(ValueError, match="omega"):
         dcp_normalize(img, omega=0.0)
+
+
+def test_mira_block_blend_is_exact_at_block_centres_and_seamless(rng):
+    """With blending, a block-centre row is divided by its own block's model (as without
+    blending); rows between centres use the linear mix, so no jump at block edges."""
+    fast = dict(THESIS, b=2 * THESIS["b"], d=2 * THESIS["d"])
+    a, _ = _decaying_waterfall(rng, pings=100)
+    b, _ = _decaying_waterfall(rng, pings=100, params=(fast, fast))
+    img = np.vstack([a, b])
+    hard = mira_normalize(img, block=100, average=41, fit_start=0, blend=False)
+    soft = mira_normalize(img, block=100, average=41, fit_start=0)
+    for r in (49, 149):
+        np.testing.assert_allclose(soft.normalized[r], hard.normalized[r], rtol=1e-6)
+    z = np.arange(256.0)
+    mid = 0.5 * (soft.starboard[0](z) + soft.starboard[1](z))
+    np.testing.assert_allclose(soft.normalized[99, 256:], img[99, 256:] / mid, rtol=0.011)
