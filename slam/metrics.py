@@ -84,7 +84,9 @@ def landmark_errors(
         if lab.shape != (m,):
             raise ValueError(f"est_labels must have shape ({m},), got {lab.shape}")
         if np.any(lab >= n):
-            raise ValueError(f"est_labels must be < {n} (number of true landmarks), got {lab.max()}")
+            raise ValueError(
+                f"est_labels must be < {n} (number of true landmarks), got {lab.max()}"
+            )
         sel = np.flatnonzero(lab >= 0)
         used_e[sel] = True  # a labelled estimate is never re-matched by distance
         _, first = np.unique(lab[sel], return_index=True)  # first estimate of each label

@@ -26,7 +26,9 @@ def _estimator_class(name: str, module):
             and callable(getattr(attr, "update", None))
         ):
             return attr
-    raise ImportError(f"slam.estimators.{ESTIMATORS[name]} defines no estimator class named {name!r}")
+    raise ImportError(
+        f"slam.estimators.{ESTIMATORS[name]} defines no estimator class named {name!r}"
+    )
 
 
 def make_estimator(name: str, **params) -> SlamEstimator:

@@ -96,15 +96,11 @@ def _check_cov(name: str, C: np.ndarray, tol: float = 1e-9) -> None:
     if C.shape[-1] == 2:
         det = C[..., 0, 0] * C[..., 1, 1] - C[..., 0, 1] * C[..., 1, 0]
         if np.any(det < -tol * scale * scale):
-            raise ValueError(
-                f"{name} must be positive semi-definite, got determinant {det.min()}"
-            )
+            raise ValueError(f"{name} must be positive semi-definite, got determinant {det.min()}")
     elif C.size:
         w = np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, -1, -2)))
         if np.any(w < -tol * scale):
-            raise ValueError(
-                f"{name} must be positive semi-definite, got eigenvalue {w.min()}"
-            )
+            raise ValueError(f"{name} must be positive semi-definite, got eigenvalue {w.min()}")
 
 
 def _as_odometry(u, Q) -> tuple[np.ndarray, np.ndarray]:
@@ -198,7 +194,9 @@ def compose_odometry(u1, Q1, u2, Q2) -> tuple[np.ndarray, np.ndarray]:
     u = np.array(
         [u1[0] + c * u2[0] - s * u2[1], u1[1] + s * u2[0] + c * u2[1], _wrap_f(u1[2] + u2[2])]
     )
-    A = np.array([[1.0, 0.0, -(s * u2[0] + c * u2[1])], [0.0, 1.0, c * u2[0] - s * u2[1]], [0, 0, 1]])
+    A = np.array(
+        [[1.0, 0.0, -(s * u2[0] + c * u2[1])], [0.0, 1.0, c * u2[0] - s * u2[1]], [0, 0, 1]]
+    )
     B = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     Q = A @ Q1 @ A.T + B @ Q2 @ B.T
     return u, 0.5 * (Q + Q.T)
@@ -546,9 +544,7 @@ class AEKFConfig:
                 f"got {self.augment_gate}"
             )
         if self.association not in ("ml", "nn", "known"):
-            raise ValueError(
-                f"association must be 'ml', 'nn' or 'known', got {self.association!r}"
-            )
+            raise ValueError(f"association must be 'ml', 'nn' or 'known', got {self.association!r}")
         if self.jacobians not in ("standard", "fej"):
             raise ValueError(f"jacobians must be 'standard' or 'fej', got {self.jacobians!r}")
         if self.max_misses is not None and self.max_misses < 1:
@@ -584,7 +580,9 @@ class AEKFSlam:
         if config is None:
             config = AEKFConfig(**params)
         elif params:
-            raise ValueError(f"pass either config or keyword parameters, got both: {sorted(params)}")
+            raise ValueError(
+                f"pass either config or keyword parameters, got both: {sorted(params)}"
+            )
         self.config = config
         x0 = np.zeros(3) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
         P0 = np.zeros((3, 3)) if P0 is None else np.asarray(P0, dtype=float)

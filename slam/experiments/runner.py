@@ -55,6 +55,8 @@ __all__ = [
     "get_experiment",
     "run_monte_carlo",
     "run_once",
+    "save_results",
+    "with_loops",
 ]
 
 
@@ -144,12 +146,25 @@ def run_once(
     estimator_params: dict | None = None,
     *,
     sim_run: Sim2DRun | None = None,
+    blas_threads: int | None = 1,
 ) -> RunResult:
     """Simulate run ``seed`` of ``spec`` (or use ``sim_run``) and drive ``filter_name``.
 
     The simulation draws from ``default_rng(seed)``; the estimator gets its own generator
     spawned from it (FastSLAM's sampling), so the data are the same for every estimator.
+    ``blas_threads`` limits BLAS threads while the estimator runs (None: no limit): the
+    filters' matrices are small, and oversubscribed BLAS threads on a shared machine make
+    them ten times slower.
     """
+    if blas_threads is None:
+        return _run_once(spec, filter_name, seed, estimator_params, sim_run)
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=blas_threads, user_api="blas"):
+        return _run_once(spec, filter_name, seed, estimator_params, sim_run)
+
+
+def _run_once(spec, filter_name, seed, estimator_params, sim_run) -> RunResult:
     ss = np.random.SeedSequence(seed)
     sim_seed, est_seed = ss.spawn(2)
     run = sim_run or simulate_run(
@@ -184,7 +199,9 @@ def run_once(
         labels = None
     le = landmark_errors(lm_est, run.landmarks, est_labels=labels)
     seen = np.unique(run.obs_label).size
-    md = landmark_mahalanobis(lm_est[le.est_index], lm_cov[le.est_index], run.landmarks[le.true_index])
+    md = landmark_mahalanobis(
+        lm_est[le.est_index], lm_cov[le.est_index], run.landmarks[le.true_index]
+    )
     ate, hr = trajectory_rmse(run.true_poses, est_poses)
     return RunResult(
         seed=seed,
@@ -298,3 +315,56 @@ def run_monte_carlo(
 def with_loops(spec: ExperimentSpec, n_loops: int) -> ExperimentSpec:
     """The same experiment with another number of loops (e.g. 1 for a short CI variant)."""
     return replace(spec, sim=replace(spec.sim, n_loops=n_loops))
+
+
+def save_results(mc: MonteCarloResult, spec: ExperimentSpec, out_dir) -> dict:
+    """Write ``results.json``, ``map.png`` (first run) and ``nees.png`` to ``out_dir``;
+    return the summary dict (with the file names)."""
+    import json
+    from pathlib import Path
+
+    from slam.experiments.figures import plot_map, plot_nees
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = mc.summary()
+    stem = f"{spec.name}_{mc.filter}"
+    files = {
+        "map": str(
+            plot_map(
+                mc.runs[0],
+                spec.map.landmarks,
+                spec.map.waypoints,
+                out / f"{stem}_map.png",
+                title=f"{spec.name}, {mc.filter}, seed {mc.runs[0].seed}: landmark RMSE "
+                f"{mc.runs[0].landmark_rmse:.2f} m",
+                named=spec.named,
+            )
+        ),
+        "nees": str(
+            plot_nees(
+                mc.avg_nees,
+                mc.nees_bounds,
+                out / f"{stem}_nees.png",
+                t=(np.arange(mc.avg_nees.size) + 1) * spec.sim.dt_observe,
+                runs=len(mc.runs),
+            )
+        ),
+    }
+    summary["files"] = files
+    summary["dt_s"] = spec.sim.dt_s
+    summary["n_loops"] = spec.sim.n_loops
+    (out / f"{stem}_results.json").write_text(json.dumps(_jsonable(summary), indent=2))
+    return summary
+
+
+def _jsonable(o):
+    if isinstance(o, dict):
+        return {str(k): _jsonable(v) for k, v in o.items()}
+    if isinstance(o, list | tuple):
+        return [_jsonable(v) for v in o]
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    return o

@@ -65,7 +65,7 @@ def step_odometry(V, G, cfg: Sim2DConfig) -> tuple[np.ndarray, np.ndarray]:
     dt, L = cfg.dt_s, cfg.wheelbase_m
     c, s = np.cos(G), np.sin(G)
     u = np.stack([V * dt * c, V * dt * s, V * dt * s / L], axis=-1)
-    J = np.empty(V.shape + (3, 2))
+    J = np.empty((*V.shape, 3, 2))
     J[..., 0, 0] = dt * c
     J[..., 0, 1] = -V * dt * s
     J[..., 1, 0] = dt * s
@@ -73,7 +73,10 @@ def step_odometry(V, G, cfg: Sim2DConfig) -> tuple[np.ndarray, np.ndarray]:
     J[..., 2, 0] = dt * s / L
     J[..., 2, 1] = V * dt * c / L
     sv2, sg2 = cfg.sigma_v_mps**2, cfg.sigma_steer_rad**2
-    Q = sv2 * J[..., :, 0, None] * J[..., None, :, 0] + sg2 * J[..., :, 1, None] * J[..., None, :, 1]
+    Q = (
+        sv2 * J[..., :, 0, None] * J[..., None, :, 0]
+        + sg2 * J[..., :, 1, None] * J[..., None, :, 1]
+    )
     return u, Q
 
 
@@ -156,7 +159,9 @@ class Sim2DRun:
         return self.odom_u.shape[0]
 
     def odometry(self, i: int) -> Odometry:
-        return Odometry(self.odom_u[i], self.odom_Q[i], t=float((self.scan_steps[i] + 1) * self.dt_s))
+        return Odometry(
+            self.odom_u[i], self.odom_Q[i], t=float((self.scan_steps[i] + 1) * self.dt_s)
+        )
 
     def scan(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """``(z (k, 2), labels (k,))`` of scan i."""

@@ -101,7 +101,7 @@ def vehicle_step(x, V, G, wheelbase: float, dt: float) -> np.ndarray:
     """Bicycle model, vectorized over leading dims: ``x (..., 3)``, speed ``V`` m/s and
     steer ``G`` rad broadcast against ``x[..., 0]``. Returns the pose after ``dt``."""
     x = np.asarray(x, dtype=float)
-    out = np.empty(np.broadcast_shapes(x.shape, np.shape(V) + (1,), np.shape(G) + (1,)))
+    out = np.empty(np.broadcast_shapes(x.shape, (*np.shape(V), 1), (*np.shape(G), 1)))
     out[..., 0] = x[..., 0] + V * dt * np.cos(G + x[..., 2])
     out[..., 1] = x[..., 1] + V * dt * np.sin(G + x[..., 2])
     h = x[..., 2] + V * dt * np.sin(G) / wheelbase

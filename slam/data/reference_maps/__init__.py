@@ -39,14 +39,18 @@ def load_map_file(path: str | Path) -> ReferenceMap:
             continue
         parts = ln.split()
         if len(parts) != 3 or not parts[1].isdigit() or not parts[2].isdigit():
-            raise ValueError(f"{path}: line {i + 1}: expected '<type> <columns> <rows>', got {ln!r}")
+            raise ValueError(
+                f"{path}: line {i + 1}: expected '<type> <columns> <rows>', got {ln!r}"
+            )
         kind, cols, rows = parts[0], int(parts[1]), int(parts[2])
         body = lines[i + 1 : i + 1 + rows]
         if len(body) != rows:
             raise ValueError(f"{path}: block {kind!r} promises {rows} rows, file has {len(body)}")
         arr = np.array([[float(v) for v in row.split()] for row in body], dtype=float)
         if arr.shape != (rows, cols):
-            raise ValueError(f"{path}: block {kind!r} has shape {arr.shape}, header says {(rows, cols)}")
+            raise ValueError(
+                f"{path}: block {kind!r} has shape {arr.shape}, header says {(rows, cols)}"
+            )
         blocks[kind] = arr
         i += 1 + rows
     for kind in ("lm", "wp"):
