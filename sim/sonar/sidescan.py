@@ -1,0 +1,422 @@
+"""Side-scan sonar: pings, waterfall, slant-to-ground-range correction, north-up mosaic.
+
+Geometry: the sensor frame is the site frame (x forward, y port, z up). Each side casts a
+fan of rays in the across-track plane at depression angles θ (below horizontal, from
+``depression − vertical_beamwidth`` up to nadir, 90°) and a few along-track angles ψ
+across the along-track beam. The depression angles are the union of a uniform 0.5° grid
+and a grid that lands rays at uniform slant-range steps on a flat seabed at the altitude
+measured by a nadir probe (``ray_oversampling`` rays per bin), so shadows are sharp at
+every range. Intensity layout per ping: ``(2 × samples,)``, port on the left with far
+range first, nadir in the middle, starboard on the right.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from scipy import ndimage
+
+from sim.sonar.acoustics import beam_pattern, finish_samples
+from sim.sonar.config import SSSConfig, WaterLike
+from sim.sonar.echo import form_echo
+from sim.sonar.mount import SonarMount
+
+_PROBE_DEG = np.array([60.0, 65.0, 70.0, 75.0, 80.0, 85.0, 90.0])
+
+
+@dataclass(frozen=True)
+class SSSPing:
+    """One side-scan ping.
+
+    intensity: (2S,) float32, port far→near then starboard near→far (log-compressed to
+    [0, 1] if configured, else linear µPa² after TVG). slant_range: (2S,) m, bin centre of
+    each sample. labels: (2S,) int32, 0 seabed, k ≥ 1 object k, −1 no return, −2 other
+    geom (vehicle). hit_position: (2S, 3) world m (NaN where label −1).
+    sensor_position: (2, 3) world m of the port and starboard transducers;
+    sensor_rotation: (3, 3) world-from-sensor (columns x fwd, y port, z up); time: s;
+    altitude: m, nadir-probe altitude (what bottom tracking reports; NaN if no bottom).
+    """
+
+    intensity: np.ndarray
+    slant_range: np.ndarray
+    labels: np.ndarray
+    hit_position: np.ndarray
+    sensor_position: np.ndarray
+    sensor_rotation: np.ndarray
+    time: float
+    altitude: float
+
+    @property
+    def samples_per_side(self) -> int:
+        return self.intensity.shape[0] // 2
+
+    def side(self, name: str) -> np.ndarray:
+        """Intensities of one side ordered near → far ("port" or "starboard")."""
+        s = self.samples_per_side
+        if name == "port":
+            return self.intensity[:s][::-1]
+        if name == "starboard":
+            return self.intensity[s:]
+        raise ValueError(f"side = {name!r}; allowed: 'port', 'starboard'")
+
+
+class SideScanSonar:
+    """Side-scan sonar on one site (both sides) or two sites (port, starboard).
+
+    Parameters: config (:class:`SSSConfig`, e.g. ``preset("deepeye680d")``); model, data
+    (after ``mj_forward``); site_id: int or (port_site, starboard_site); geom_object_id
+    (ngeom,) int; geom_reflectivity (ngeom,) float; water (``WaterLike``); backend
+    "embree" (static scene in Embree + moving bodies in MuJoCo) or "mujoco"; static_mesh:
+    optional world-frame (V, F, geom per face), e.g. ``World.static_mesh()``.
+    """
+
+    def __init__(
+        self,
+        config: SSSConfig,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        site_id: int | tuple[int, int],
+        geom_object_id: np.ndarray,
+        geom_reflectivity: np.ndarray,
+        water: WaterLike,
+        backend="embree",
+        static_mesh=None,
+    ):
+        sites = (site_id, site_id) if isinstance(site_id, int | np.integer) else tuple(site_id)
+        if len(sites) != 2:
+            raise ValueError(
+                f"site_id = {site_id!r}; allowed: one site or (port_site, starboard_site)"
+            )
+        self.mount = SonarMount(
+            config,
+            model,
+            data,
+            sites,
+            geom_object_id,
+            geom_reflectivity,
+            water,
+            backend,
+            static_mesh,
+        )
+        self.config = config
+        c = config
+        S = c.samples_per_side
+        self.bin_width = c.bin_width
+        self.ranges = c.min_range + (np.arange(S) + 0.5) * self.bin_width
+        self.slant_range = np.concatenate([self.ranges[::-1], self.ranges])
+        self.dep = np.deg2rad(c.depression_deg)
+        self.vbw = np.deg2rad(c.vertical_beamwidth_deg)
+        self.theta_lo = max(np.deg2rad(-30.0), self.dep - self.vbw)
+        bw = np.deg2rad(c.along_track_beamwidth_deg)
+        span = bw if c.beam_pattern == "rect" else 2.0 * bw
+        n = c.rays_along_track
+        self.psi = (np.arange(n) + 0.5) / n * span - 0.5 * span
+        self.dpsi = span / n
+        self.b_along = beam_pattern(self.psi, bw, c.beam_pattern, c.sidelobe_db) ** 2
+        self.uniform_theta = np.arange(self.theta_lo, np.pi / 2, np.deg2rad(0.5))
+        probe = np.deg2rad(_PROBE_DEG)
+        self._probe_local = np.concatenate(
+            [
+                np.stack([np.zeros_like(probe), np.cos(probe), -np.sin(probe)], 1),
+                np.stack([np.zeros_like(probe), -np.cos(probe), -np.sin(probe)], 1),
+            ]
+        )
+        self._probe_sin = np.concatenate([np.sin(probe), np.sin(probe)])
+
+    # -- geometry -----------------------------------------------------------------------
+    def _altitude(self, data, origin, R) -> float:
+        hits = self.mount.backend.cast(data, origin, self._probe_local @ R.T, self.config.max_range)
+        ok = np.isfinite(hits.dist)
+        if not np.any(ok):
+            return float("nan")
+        return float(np.median(hits.dist[ok] * self._probe_sin[ok]))
+
+    def depression_angles(self, altitude: float) -> tuple[np.ndarray, np.ndarray]:
+        """Sorted depression angles θ (rad) and their widths Δθ for a ping at ``altitude``."""
+        c = self.config
+        th = [self.uniform_theta, [np.pi / 2]]
+        if np.isfinite(altitude) and altitude < c.max_range:
+            r0 = max(altitude, c.min_range)
+            n = int(np.ceil(c.ray_oversampling * (c.max_range - r0) / self.bin_width)) + 1
+            r = np.linspace(r0, c.max_range, n)
+            th.append(np.arcsin(np.clip(altitude / r, -1.0, 1.0)))
+        theta = np.unique(np.concatenate(th))
+        theta = theta[theta >= self.theta_lo]
+        mid = 0.5 * (theta[1:] + theta[:-1])
+        edges = np.concatenate([[theta[0]], mid, [np.pi / 2]])
+        return theta, np.diff(edges)
+
+    def _fan(self, theta, dtheta, side_sign):
+        """Local directions (N, 3), ∂d/∂θ·Δθ (N, 3) and beam gains (N,) of one side."""
+        psi = self.psi[:, None]
+        ct, st = np.cos(theta)[None, :], np.sin(theta)[None, :]
+        cp, sp = np.cos(psi), np.sin(psi)
+        d = np.stack(np.broadcast_arrays(sp, side_sign * cp * ct, -cp * st), -1).reshape(-1, 3)
+        dd = np.stack(np.broadcast_arrays(0.0 * sp, -side_sign * cp * st, -cp * ct), -1)
+        dd = (dd * dtheta[None, :, None]).reshape(-1, 3)
+        c = self.config
+        bv = beam_pattern(theta - self.dep, self.vbw, c.beam_pattern, c.sidelobe_db) ** 2
+        gain = (self.b_along[:, None] * cp * self.dpsi) * (bv * dtheta)[None, :]
+        return d, dd, (gain * self.mount.sl * self.mount.mu).reshape(-1)
+
+    # -- ping ---------------------------------------------------------------------------
+    def ping(self, data: mujoco.MjData, rng: np.random.Generator) -> SSSPing:
+        """Simulate one ping at the current state of ``data`` (positions from mj_forward/step)."""
+        c = self.config
+        m = self.mount
+        S = c.samples_per_side
+        p_port, R = m.pose(data, m.site_ids[0])
+        p_stbd, _ = m.pose(data, m.site_ids[1])
+        altitude = self._altitude(data, p_port, R)
+        theta, dtheta = self.depression_angles(altitude)
+        parts = [self._fan(theta, dtheta, s) for s in (1.0, -1.0)]
+        n_side = parts[0][0].shape[0]
+        rows = np.repeat(np.array([0, 1]), n_side)
+        d_loc = np.concatenate([parts[0][0], parts[1][0]])
+        dirs = d_loc @ R.T
+        d_dirs = np.concatenate([parts[0][1], parts[1][1]]) @ R.T
+        gain = np.concatenate([parts[0][2], parts[1][2]])
+        if m.site_ids[0] == m.site_ids[1]:
+            hits = m.backend.cast(data, p_port, dirs, m.cutoff)
+            echo = form_echo(
+                hits,
+                p_port,
+                dirs,
+                d_dirs,
+                gain,
+                rows,
+                2,
+                S,
+                c.min_range,
+                self.bin_width,
+                m.geom_object_id,
+                m.geom_reflectivity,
+                m.alpha_db_m,
+                m.specular,
+            )
+            mean, labels, pos = echo.mean, echo.labels, echo.hit_position
+        else:
+            out = []
+            for k, p in enumerate((p_port, p_stbd)):
+                sl = slice(k * n_side, (k + 1) * n_side)
+                h = m.backend.cast(data, p, dirs[sl], m.cutoff)
+                out.append(
+                    form_echo(
+                        h,
+                        p,
+                        dirs[sl],
+                        d_dirs[sl],
+                        gain[sl],
+                        np.zeros(n_side, np.int64),
+                        1,
+                        S,
+                        c.min_range,
+                        self.bin_width,
+                        m.geom_object_id,
+                        m.geom_reflectivity,
+                        m.alpha_db_m,
+                        m.specular,
+                    )
+                )
+            mean = np.concatenate([e.mean for e in out])
+            labels = np.concatenate([e.labels for e in out])
+            pos = np.concatenate([e.hit_position for e in out])
+        r2 = np.concatenate([self.ranges, self.ranges])
+        inten = finish_samples(mean.reshape(-1), r2, m.alpha_db_m, c.acoustic, rng)
+        inten = inten.reshape(2, S)
+        return SSSPing(
+            intensity=np.concatenate([inten[0, ::-1], inten[1]]),
+            slant_range=self.slant_range,
+            labels=np.concatenate([labels[0, ::-1], labels[1]]),
+            hit_position=np.concatenate([pos[0, ::-1], pos[1]]),
+            sensor_position=np.stack([p_port, p_stbd]),
+            sensor_rotation=R,
+            time=float(data.time),
+            altitude=altitude,
+        )
+
+
+def sss_ping(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    site_id: int | tuple[int, int],
+    geom_object_id: np.ndarray,
+    geom_reflectivity: np.ndarray,
+    water: WaterLike,
+    rng: np.random.Generator,
+    config: SSSConfig | None = None,
+    backend: str = "mujoco",
+) -> SSSPing:
+    """One-shot ping (builds a :class:`SideScanSonar`; keep one for repeated pings)."""
+    from sim.sonar.config import preset
+
+    cfg = config if config is not None else preset("deepeye680d")
+    sonar = SideScanSonar(
+        cfg, model, data, site_id, geom_object_id, geom_reflectivity, water, backend
+    )
+    return sonar.ping(data, rng)
+
+
+@dataclass(frozen=True)
+class SideScanWaterfall:
+    """Pings stacked in time. intensity (P, 2S) float32 (port left, nadir centre);
+    slant_range (2S,) m; labels (P, 2S) int32; hit_position (P, 2S, 3) world m;
+    sensor_position (P, 2, 3); sensor_rotation (P, 3, 3); time (P,) s; altitude (P,) m."""
+
+    intensity: np.ndarray
+    slant_range: np.ndarray
+    labels: np.ndarray
+    hit_position: np.ndarray
+    sensor_position: np.ndarray
+    sensor_rotation: np.ndarray
+    time: np.ndarray
+    altitude: np.ndarray
+
+    @classmethod
+    def from_pings(cls, pings: list[SSSPing]) -> SideScanWaterfall:
+        if not pings:
+            raise ValueError("pings is empty; allowed: at least one SSSPing")
+        return cls(
+            intensity=np.stack([p.intensity for p in pings]),
+            slant_range=pings[0].slant_range,
+            labels=np.stack([p.labels for p in pings]),
+            hit_position=np.stack([p.hit_position for p in pings]),
+            sensor_position=np.stack([p.sensor_position for p in pings]),
+            sensor_rotation=np.stack([p.sensor_rotation for p in pings]),
+            time=np.array([p.time for p in pings]),
+            altitude=np.array([p.altitude for p in pings]),
+        )
+
+    @property
+    def samples_per_side(self) -> int:
+        return self.intensity.shape[1] // 2
+
+
+def ground_range(slant_range: np.ndarray, altitude: float | np.ndarray) -> np.ndarray:
+    """Flat-seabed ground range sqrt(r² − h²) (m); NaN inside the water column (r < h)."""
+    r = np.asarray(slant_range, float)
+    h = np.asarray(altitude, float)
+    g2 = r * r - h * h
+    return np.where(g2 >= 0, np.sqrt(np.maximum(g2, 0.0)), np.nan)
+
+
+@dataclass(frozen=True)
+class GroundRangeImage:
+    """Slant-range-corrected waterfall: image (P, 2G) float32 (port left, far first);
+    ground_range (2G,) m of each column (port negative... stored as signed: port > 0 to
+    the left? no: columns hold |ground range|, ``side`` tells which side)."""
+
+    image: np.ndarray
+    ground_range: np.ndarray
+    side: np.ndarray
+
+
+def slant_to_ground(
+    wf: SideScanWaterfall, resolution: float | None = None, max_ground_range: float | None = None
+) -> GroundRangeImage:
+    """Resample every ping from slant range to ground range on a flat-seabed model with the
+    ping's altitude: column at ground range x reads slant range sqrt(x² + h²) (linear
+    interpolation, ``scipy.ndimage.map_coordinates``). Water-column samples disappear."""
+    S = wf.samples_per_side
+    ranges = wf.slant_range[S:]
+    dr = float(ranges[1] - ranges[0])
+    r0 = float(ranges[0] - 0.5 * dr)
+    res = dr if resolution is None else float(resolution)
+    if res <= 0:
+        raise ValueError(f"resolution = {resolution!r}; allowed > 0 m")
+    h = np.nan_to_num(wf.altitude, nan=0.0)
+    gmax = float(ranges[-1]) if max_ground_range is None else float(max_ground_range)
+    x = (np.arange(int(np.floor(gmax / res))) + 0.5) * res
+    r = np.sqrt(x[None, :] ** 2 + h[:, None] ** 2)
+    col = (r - r0) / dr - 0.5  # fractional sample index near→far
+    P = wf.intensity.shape[0]
+    rows = np.broadcast_to(np.arange(P)[:, None], col.shape)
+    stbd = wf.intensity[:, S:].astype(np.float64)
+    port = wf.intensity[:, :S][:, ::-1].astype(np.float64)
+    kw = dict(order=1, mode="constant", cval=0.0)
+    gs = ndimage.map_coordinates(stbd, [rows, col], **kw)
+    gp = ndimage.map_coordinates(port, [rows, col], **kw)
+    G = x.size
+    image = np.concatenate([gp[:, ::-1], gs], axis=1).astype(np.float32)
+    gr = np.concatenate([x[::-1], x])
+    side = np.concatenate([np.full(G, "port"), np.full(G, "starboard")])
+    return GroundRangeImage(image, gr, side)
+
+
+@dataclass(frozen=True)
+class Mosaic:
+    """North-up georeferenced grid: image (H, W) float32 mean intensity (0 where empty),
+    count (H, W) int32 samples per cell; cell (i, j) centre at x = x_min + (j + ½)·res,
+    y = y_max − (i + ½)·res (world m, x east, y north)."""
+
+    image: np.ndarray
+    count: np.ndarray
+    x_min: float
+    y_max: float
+    resolution: float
+
+    def cell_center(self, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.x_min + (np.asarray(j) + 0.5) * self.resolution, self.y_max - (
+            np.asarray(i) + 0.5
+        ) * self.resolution
+
+
+def sample_ground_positions(wf: SideScanWaterfall) -> np.ndarray:
+    """World xy (P, 2S, 2) of every sample on a flat seabed at the ping's altitude below the
+    transducer (NaN in the water column): transducer xy ± ground range along the sensor's
+    horizontal port axis."""
+    S = wf.samples_per_side
+    g = ground_range(wf.slant_range[None, :], wf.altitude[:, None])  # (P, 2S)
+    sign = np.concatenate([np.ones(S), -np.ones(S)])
+    u = wf.sensor_rotation[:, :2, 1]  # port axis xy
+    u = u / np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-12)
+    base = np.concatenate(
+        [
+            np.repeat(wf.sensor_position[:, :1, :2], S, 1),
+            np.repeat(wf.sensor_position[:, 1:, :2], S, 1),
+        ],
+        axis=1,
+    )
+    return base + (g * sign[None, :])[..., None] * u[:, None, :]
+
+
+def mosaic(
+    wf: SideScanWaterfall,
+    resolution: float = 0.1,
+    bounds: tuple[float, float, float, float] | None = None,
+    fill_radius: int = 6,
+) -> Mosaic:
+    """Georeference all samples (``sample_ground_positions``) into a north-up grid of cell
+    size ``resolution`` m, mean intensity per cell (``np.bincount``). bounds: (x_min,
+    y_min, x_max, y_max) world m; default: the samples' extent. Empty cells within
+    ``fill_radius`` cells of a filled one take the nearest filled value (near nadir the
+    samples' ground spacing exceeds the cell size); ``count`` stays 0 there."""
+    if resolution <= 0:
+        raise ValueError(f"resolution = {resolution!r}; allowed > 0 m")
+    xy = sample_ground_positions(wf).reshape(-1, 2)
+    v = wf.intensity.reshape(-1).astype(np.float64)
+    ok = np.all(np.isfinite(xy), axis=1)
+    xy, v = xy[ok], v[ok]
+    if bounds is None:
+        x0, y0 = xy.min(axis=0)
+        x1, y1 = xy.max(axis=0)
+    else:
+        x0, y0, x1, y1 = bounds
+    W = max(1, int(np.ceil((x1 - x0) / resolution)))
+    H = max(1, int(np.ceil((y1 - y0) / resolution)))
+    j = np.floor((xy[:, 0] - x0) / resolution).astype(np.int64)
+    i = np.floor((y1 - xy[:, 1]) / resolution).astype(np.int64)
+    inside = (i >= 0) & (i < H) & (j >= 0) & (j < W)
+    cell = i[inside] * W + j[inside]
+    s = np.bincount(cell, v[inside], minlength=H * W)
+    n = np.bincount(cell, minlength=H * W)
+    img = np.where(n > 0, s / np.maximum(n, 1), 0.0).reshape(H, W)
+    empty = (n == 0).reshape(H, W)
+    if fill_radius > 0 and empty.any() and not empty.all():
+        dist, (ii, jj) = ndimage.distance_transform_edt(empty, return_indices=True)
+        fill = empty & (dist <= fill_radius)
+        img[fill] = img[ii[fill], jj[fill]]
+    img = img.astype(np.float32)
+    return Mosaic(img, n.reshape(H, W).astype(np.int32), float(x0), float(y1), float(resolution))
