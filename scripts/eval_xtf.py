@@ -101,8 +101,35 @@ def main(argv: list[str] | None = None) -> int:
     fig.savefig(out_dir / "scotsman_mira_ping.png", dpi=90)
     plt.close(fig)
 
+    # observation model on the labelled wreck point (.hits: "channel sample ping")
+    from slam.frontend.observation import observe, sss_geometry_from_waterfall
+
+    hits_path = Path(str(args.xtf) + ".hits")
+    hit_obs = None
+    alt_cmp = []
+    for k in range(0, wf.n_pings, 50):
+        if "altitude_m" in wf.nav and wf.nav["altitude_m"][k] > 0:
+            g = sss_geometry_from_waterfall(wf, k)
+            alt_cmp.append((k, g.altitude, float(wf.nav["altitude_m"][k])))
+    if hits_path.is_file():
+        ch, sample, ping = map(int, hits_path.read_text().split())
+        col = wf.samples_per_side + sample if ch == 1 else wf.samples_per_side - 1 - sample
+        g = sss_geometry_from_waterfall(wf, ping, altitude="nav")
+        rb = observe(g, (float(ping), float(col)), (1.0, 1.0))
+        hit_obs = {
+            "ping": ping,
+            "column": col,
+            "altitude_nav_m": g.altitude,
+            "range_m": float(rb.z[0]),
+            "bearing_deg": float(np.degrees(rb.z[1])),
+            "sigma_range_m": float(np.sqrt(rb.R[0, 0])),
+            "sigma_bearing_deg": float(np.degrees(np.sqrt(rb.R[1, 1]))),
+        }
+
     report = {
         "file": args.xtf,
+        "hit_observation": hit_obs,
+        "altitude_first_return_vs_nav": alt_cmp,
         "shape": list(wf.intensity.shape),
         "seabed_fraction": float(mask.mean()),
         "siqem": table,
@@ -137,6 +164,14 @@ def main(argv: list[str] | None = None) -> int:
                 f"{name:16s}" + "".join(f"{v:14.4f}" for v in vals) + f"{row['time_s'] * 1e3:14.1f}"
             )
         print("thesis Table 4.2 (other data): raw 0.12, DCP 0.14, MIRA 0.08")
+        print("altitude from first return vs nav altitude_m (ping, first return m, nav m):")
+        print("  " + ", ".join(f"({k}, {a:.2f}, {b:.2f})" for k, a, b in alt_cmp))
+        if hit_obs:
+            print(
+                f"labelled wreck point -> range {hit_obs['range_m']:.2f} m ± {hit_obs['sigma_range_m']:.3f}, "
+                f"bearing {hit_obs['bearing_deg']:.1f}° ± {hit_obs['sigma_bearing_deg']:.2f}° "
+                f"(nav altitude {hit_obs['altitude_nav_m']:.2f} m)"
+            )
         print(f"figures: {png}, {out_dir / 'scotsman_mira_ping.png'}")
     return 0
 

@@ -440,3 +440,59 @@ def pixel_from_body(geometry: Geometry, xy: np.ndarray, *, ref_row: float = 0.0)
         i = (slant - g.range_min) / g.bin_width - 0.5
         return np.stack([k, i], axis=1)
     raise ValueError(f"unknown geometry type {type(geometry).__name__}")
+
+
+def sss_geometry_from_waterfall(
+    waterfall,
+    ping: int,
+    *,
+    altitude: float | str = "first_return",
+    along_track_spacing: float | None = None,
+    along_track_beamwidth_deg: float = 0.0,
+) -> SideScanGeometry:
+    """Side-scan geometry of one ping of a :class:`slam.io.waterfall.Waterfall`.
+
+    altitude : metres, ``"nav"`` (the file's ``altitude_m`` navigation field), or
+        ``"first_return"`` (default): the slant range of the first seabed return, the
+        mean of both sides (:func:`slam.frontend.normalization.first_return_index`), i.e.
+        the altitude the sonar itself measured over a flat seabed.
+    along_track_spacing : m per ping; default: navigation speed (knots) × median ping
+        interval. Raises ValueError when neither is available.
+    """
+    from slam.frontend.normalization import first_return_index
+
+    p = waterfall.n_pings
+    if not 0 <= ping < p:
+        raise ValueError(f"ping {ping} out of range [0, {p})")
+    s = waterfall.samples_per_side
+    r_max = float(waterfall.slant_range_m[ping])
+    if not np.isfinite(r_max) or r_max <= 0:
+        raise ValueError(f"waterfall has no slant range for ping {ping} (got {r_max})")
+    if altitude == "nav":
+        if "altitude_m" not in waterfall.nav:
+            raise ValueError("altitude='nav' but the waterfall has no altitude_m navigation")
+        alt = float(waterfall.nav["altitude_m"][ping])
+    elif altitude == "first_return":
+        idx = [
+            first_return_index(waterfall.port[ping]),
+            first_return_index(waterfall.starboard[ping]),
+        ]
+        alt = (float(np.mean(idx)) + 0.5) * r_max / s
+    else:
+        alt = float(altitude)
+    if along_track_spacing is None:
+        dt = np.diff(waterfall.time_s)
+        if "speed_knots" not in waterfall.nav or dt.size == 0 or not np.all(np.isfinite(dt)):
+            raise ValueError(
+                "along_track_spacing not given and the waterfall has no speed/time to derive it"
+            )
+        along_track_spacing = (
+            float(waterfall.nav["speed_knots"][ping]) * 0.514444 * float(np.median(dt))
+        )
+    return SideScanGeometry(
+        slant_range_max=r_max,
+        samples_per_side=s,
+        altitude=alt,
+        along_track_spacing=float(along_track_spacing),
+        along_track_beamwidth_deg=along_track_beamwidth_deg,
+    )

@@ -167,3 +167,34 @@ def test_bad_inputs():
         SideScanGeometry(
             slant_range_max=10, samples_per_side=10, altitude=-1, along_track_spacing=0.1
         )
+
+
+def test_sss_geometry_from_waterfall_altitude_and_spacing():
+    """A waterfall whose seabed starts 100 samples from nadir (3 cm samples → 3.0 m, +½
+    sample) and whose nav says 2 knots at 10 pings/s → Δa = 2·0.514444·0.1 m."""
+    from slam.frontend.observation import sss_geometry_from_waterfall
+    from slam.io.waterfall import Waterfall
+
+    s, p = 1000, 20
+    side = np.ones((p, s), np.float32)
+    side[:, :100] = 0.01
+    wf = Waterfall(
+        intensity=np.concatenate([side[:, ::-1], side], axis=1),
+        samples_per_side=s,
+        time_s=np.arange(p) * 0.1,
+        slant_range_m=np.full(p, 30.0),
+        frequency_hz=np.full(p, 600e3),
+        sound_velocity_m_s=np.full(p, 1500.0),
+        nav={"speed_knots": np.full(p, 2.0), "altitude_m": np.full(p, 2.9)},
+    )
+    g = sss_geometry_from_waterfall(wf, 5)
+    assert g.altitude == pytest.approx(100.5 * 0.03)
+    assert g.along_track_spacing == pytest.approx(2 * 0.514444 * 0.1)
+    assert sss_geometry_from_waterfall(wf, 5, altitude="nav").altitude == pytest.approx(2.9)
+    wf2 = Waterfall(
+        wf.intensity, s, wf.time_s, wf.slant_range_m, wf.frequency_hz, wf.sound_velocity_m_s
+    )
+    with pytest.raises(ValueError, match="along_track_spacing"):
+        sss_geometry_from_waterfall(wf2, 5)
+    with pytest.raises(ValueError, match="out of range"):
+        sss_geometry_from_waterfall(wf, 99)
