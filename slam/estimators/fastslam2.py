@@ -78,7 +78,7 @@ def validate_covariance(name: str, cov: np.ndarray, *, positive_definite: bool) 
     if np.any(diag < 0.0):
         raise ValueError(f"{name} has negative variances {diag.tolist()}; variances must be >= 0")
     scale = max(float(np.max(np.abs(c))), 1e-300)
-    if not np.allclose(c, c.T, rtol=1e-9, atol=1e-12 * scale):
+    if np.max(np.abs(c - c.T)) > 1e-9 * scale:
         raise ValueError(f"{name} must be symmetric, got {c.tolist()}")
     eig = np.linalg.eigvalsh(0.5 * (c + c.T))
     if positive_definite and not eig.min() > 1e-12 * scale:
@@ -134,9 +134,18 @@ def _sym(P: np.ndarray) -> np.ndarray:
     return 0.5 * (P + np.swapaxes(P, -1, -2))
 
 
+def _mm(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Batched product of small matrices as a sum of broadcast outer products (for inner
+    dimension 2 or 3 this is 2-3x faster than ``np.matmul`` on large broadcast batches)."""
+    out = A[..., :, 0, None] * B[..., None, 0, :]
+    for k in range(1, A.shape[-1]):
+        out = out + A[..., :, k, None] * B[..., None, k, :]
+    return out
+
+
 def _quad(H: np.ndarray, P: np.ndarray) -> np.ndarray:
     """``H P H^T`` batched."""
-    return H @ P @ np.swapaxes(H, -1, -2)
+    return _mm(_mm(H, P), np.swapaxes(H, -1, -2))
 
 
 # ---------------------------------------------------------------------------- config
@@ -459,15 +468,17 @@ class FastSLAM2:
         if j_unk.size:
             ku = j_unk.size
             p0 = self._p0(R[j_unk])  # (ku,)
-            if exists.any():
-                zhat, Hv, Hf = observation_model(xv[:, None, :], m)  # (n, cap, ...)
-                S0 = _quad(Hv, Pv[:, None]) + _quad(Hf, P)  # (n, cap, 2, 2)
+            used = int(count.max())  # slots beyond every particle's count are empty
+            if used and exists[:, :used].any():
+                ex = exists[:, :used]
+                zhat, Hv, Hf = observation_model(xv[:, None, :], m[:, :used])  # (n, used, ...)
+                S0 = _quad(Hv, Pv[:, None]) + _quad(Hf, P[:, :used])  # (n, used, 2, 2)
                 S = S0[:, None] + R[j_unk][None, :, None]  # (n, ku, cap, 2, 2)
                 v = Z[j_unk][None, :, None] - zhat[:, None]
                 v[..., 1] = _wrap(v[..., 1])
                 Si, det = _inv2(S)
                 d2 = np.einsum("...i,...ij,...j->...", v, Si, v)
-                d2 = np.where(exists[:, None, :], d2, np.inf)
+                d2 = np.where(ex[:, None, :], d2, np.inf)
                 ll = -0.5 * d2 - 0.5 * np.log(det) - _LOG_2PI
                 ll_gated = np.where(d2 < cfg.reject_gate, ll, -np.inf)
                 best = np.argmax(ll_gated, axis=2)  # (n, ku)

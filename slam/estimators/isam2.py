@@ -78,12 +78,16 @@ class ISAM2SLAM:
     association : "ml" (default: labels ignored, gated maximum likelihood), "known" (every
         observation's ``label`` is its landmark identity) or "auto" (label when present).
     node_every_predict : create a pose node per odometry increment instead of per scan.
-    relinearize_threshold, relinearize_skip : ``gtsam.ISAM2Params`` settings.
+    relinearize_threshold, relinearize_skip : ``gtsam.ISAM2Params`` settings (GTSAM's
+        defaults 0.1 and 10: relinearize variables whose delta exceeds 0.1 every 10 updates).
     extra_iterations : additional ``ISAM2.update()`` calls after each update (more
         relinearization after loop closures; 0 is the standard one step per update).
     marginal_refresh_every : refresh all cached landmark marginals every this many updates.
-    min_variance : floor added to the diagonal of odometry/prior covariances handed to
-        GTSAM (a singular covariance has no square-root information), m² / rad².
+    min_variance, relative_floor : eigenvalue floor (absolute m² / rad², and relative to
+        the largest eigenvalue) of the odometry and measurement covariances handed to GTSAM
+        (a singular covariance has no square-root information; see ``_noise``).
+    prior_min_variance : eigenvalue floor of the prior on ``x0`` (P0 = 0 by default:
+        σ = 0.1 mm / 0.1 mrad instead of an exact anchor).
     rng, seed, **_ : accepted and ignored (the estimator is deterministic) so the factory
         can pass the same keywords to every estimator.
     """
@@ -99,11 +103,13 @@ class ISAM2SLAM:
         P0=None,
         association: str = "ml",
         node_every_predict: bool = False,
-        relinearize_threshold: float = 0.01,
-        relinearize_skip: int = 1,
+        relinearize_threshold: float = 0.1,
+        relinearize_skip: int = 10,
         extra_iterations: int = 0,
         marginal_refresh_every: int = 20,
-        min_variance: float = 1e-10,
+        min_variance: float = 1e-9,
+        relative_floor: float = 1e-3,
+        prior_min_variance: float = 1e-8,
         rng: np.random.Generator | None = None,
         seed: int | None = None,
     ) -> None:
@@ -135,6 +141,13 @@ class ISAM2SLAM:
         self.extra_iterations = int(extra_iterations)
         self.marginal_refresh_every = int(marginal_refresh_every)
         self.min_variance = float(min_variance)
+        if not (np.isfinite(relative_floor) and 0 <= relative_floor < 1):
+            raise ValueError(f"relative_floor must be in [0, 1), got {relative_floor!r}")
+        if not (np.isfinite(prior_min_variance) and prior_min_variance > 0):
+            raise ValueError(
+                f"prior_min_variance must be finite and > 0, got {prior_min_variance!r}"
+            )
+        self.relative_floor = float(relative_floor)
 
         x0 = np.zeros(3) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
         if x0.shape != (3,) or not np.all(np.isfinite(x0)):
@@ -157,7 +170,9 @@ class ISAM2SLAM:
         graph = gtsam.NonlinearFactorGraph()
         graph.add(
             gtsam.PriorFactorPose2(
-                self._xkey(0), gtsam.Pose2(*self._pose_est), self._noise(P0_local)
+                self._xkey(0),
+                gtsam.Pose2(*self._pose_est),
+                self._noise(P0_local, floor=float(prior_min_variance)),
             )
         )
         values = gtsam.Values()
@@ -188,8 +203,14 @@ class ISAM2SLAM:
         c, s = np.cos(phi), np.sin(phi)
         return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
-    def _noise(self, cov: np.ndarray):
-        c = _sym(np.asarray(cov, dtype=float)) + self.min_variance * np.eye(cov.shape[0])
+    def _noise(self, cov: np.ndarray, floor: float | None = None):
+        """GTSAM Gaussian noise model with eigenvalues floored at ``min_variance`` and at
+        ``relative_floor`` times the largest one: a rank-deficient odometry covariance (two
+        control noises driving three increments) otherwise gives information 1e8 times
+        larger than elsewhere and iSAM2's Cholesky reports an indeterminate system."""
+        lam, V = np.linalg.eigh(_sym(np.asarray(cov, dtype=float)))
+        fl = max(self.min_variance if floor is None else floor, self.relative_floor * lam.max())
+        c = _sym((V * np.maximum(lam, fl)) @ V.T)
         return self._g.noiseModel.Gaussian.Covariance(c)
 
     @property
@@ -375,14 +396,17 @@ class ISAM2SLAM:
 
     def _refresh(self, observed) -> None:
         """Pull the estimate and the marginals needed by the next association from iSAM2."""
-        est = self._isam.calculateEstimate()
-        p = est.atPose2(self._xkey(self._node))
+        isam = self._isam
+        p = isam.calculateEstimatePose2(self._xkey(self._node))
         self._pose_est = np.array([p.x(), p.y(), p.theta()])
         T = self._local_to_world(self._pose_est[2])
         self._pose_cov_world = _sym(T @ self._isam.marginalCovariance(self._xkey(self._node)) @ T.T)
         if self.n_landmarks:
-            pts = self._g.utilities.extractPoint2(est)  # ordered by key: l0, l1, …
-            self._lm_mean = np.asarray(pts, dtype=float).reshape(-1, 2)
+            # per-key estimates: O(n landmarks), not O(n poses) like calculateEstimate()
+            self._lm_mean = np.array(
+                [isam.calculateEstimatePoint2(self._lkey(j)) for j in range(self.n_landmarks)],
+                dtype=float,
+            ).reshape(-1, 2)
             if self._n_updates % self.marginal_refresh_every == 0:
                 observed = range(self.n_landmarks)
                 self._cov_stale = False
