@@ -1,0 +1,27 @@
+"""Gymnasium environments of undersea. Importing this package registers them:
+
+* ``undersea/WaypointNav-v0``  — reach waypoints from navigation sensors;
+* ``undersea/SonarSurvey-v0``  — cover an area with the side-scan sonar;
+* ``undersea/ActiveSLAM-v0``   — move so that sonar SLAM becomes certain and accurate.
+
+    import gymnasium as gym
+    import sim.envs  # noqa: F401  (registers the ids)
+    env = gym.make("undersea/WaypointNav-v0", vehicle="alister9", render_mode="rgb_array")
+
+Each class docstring is the manual (spaces with units, rewards, episode end, arguments).
+"""
+
+from gymnasium.envs.registration import register, registry
+
+_ENVS = {
+    "undersea/WaypointNav-v0": ("sim.envs.waypoint_nav:WaypointNavEnv", 3000),
+    "undersea/SonarSurvey-v0": ("sim.envs.sonar_survey:SonarSurveyEnv", 3000),
+    "undersea/ActiveSLAM-v0": ("sim.envs.active_slam:ActiveSLAMEnv", 2000),
+}
+
+for _id, (_entry, _steps) in _ENVS.items():
+    if _id not in registry:
+        register(id=_id, entry_point=_entry, max_episode_steps=_steps)
+
+ENV_IDS = tuple(_ENVS)
+__all__ = ["ENV_IDS"]
