@@ -49,11 +49,24 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--detector", choices=("sift", "orb", "asift"), default="sift")
     ap.add_argument("--ratio", type=float, default=0.8)
+    ap.add_argument(
+        "--speckle",
+        type=float,
+        default=0.0,
+        help="std of independent unit-mean Gamma speckle multiplied into B (0 = none)",
+    )
+    ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     img, what = wreck_crop()
     rows = rotation_scale_sweep(
-        img, angles_deg=ANGLES, scales=SCALES, detector=args.detector, ratio=args.ratio
+        img,
+        angles_deg=ANGLES,
+        scales=SCALES,
+        detector=args.detector,
+        ratio=args.ratio,
+        speckle=args.speckle,
+        rng=np.random.default_rng(args.seed),
     )
     # Table 4.4: the three detectors at 180°, scale 1.2
     import cv2
@@ -79,7 +92,10 @@ def main(argv: list[str] | None = None) -> int:
             )
         )
         return 0
-    print(f"{what}, {img.shape[0]}x{img.shape[1]} px; detector {args.detector}, alpha {args.ratio}")
+    print(
+        f"{what}, {img.shape[0]}x{img.shape[1]} px; detector {args.detector}, alpha {args.ratio}, "
+        f"speckle {args.speckle}"
+    )
     print("cells: inliers; time s; rotation error deg / scale error % / corner error px")
     print(f"{'scale':>6s}" + "".join(f"{a:>30d}°" for a in ANGLES))
     for s in SCALES:

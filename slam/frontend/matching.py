@@ -292,11 +292,17 @@ def rotation_scale_sweep(
     detector: str = "sift",
     ratio: float = 0.8,
     blur: tuple[int, float] | None = (11, 1.5),
+    speckle: float = 0.0,
+    rng: np.random.Generator | None = None,
 ) -> list[SweepRow]:
     """Thesis Table 4.3 protocol: image A = ``image`` blurred with a Gaussian (11×11,
     σ 1.5; the "large-space low-resolution" image), image B = ``image`` rotated and scaled.
     Each cell reports inliers, whether matched, and the recovered transform's errors
     against the known one (rotation, relative scale, mean error at A's corners, px in B).
+
+    ``speckle`` > 0 multiplies B by independent unit-mean Gamma speckle of that standard
+    deviation (from ``rng``), a crude stand-in for a second pass seeing new speckle;
+    without it, A and B share their noise and matching is easier than between real passes.
     """
     import cv2
 
@@ -308,6 +314,12 @@ def rotation_scale_sweep(
     for s in scales:
         for ang in angles_deg:
             b, m_true = rotate_scale(base, ang, s)
+            if speckle > 0:
+                if rng is None:
+                    raise ValueError("speckle > 0 needs an rng (numpy.random.Generator)")
+                k = 1.0 / speckle**2
+                noise = rng.gamma(k, 1.0 / k, size=b.shape)
+                b = np.clip(b * noise, 0, 255).astype(np.uint8)
             res = match_images(a, b, detector=detector, ratio=ratio)
             if res.transform is None:
                 rot_err = scale_err = corner_err = np.nan

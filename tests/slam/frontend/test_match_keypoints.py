@@ -103,3 +103,15 @@ def test_bad_inputs(texture):
         match_images(np.zeros((8, 8, 3)), texture)
     const = match_images(np.full((64, 64), 3.0), texture)  # documented: no keypoints
     assert const.n_keypoints_a == 0 and not const.matched
+
+
+def test_sweep_with_independent_speckle_still_recovers_transform(texture):
+    """B with its own unit-mean speckle (σ 0.5): fewer inliers than without, same transform."""
+    clean = rotation_scale_sweep(texture, angles_deg=(135,), scales=(0.8,))[0]
+    noisy = rotation_scale_sweep(
+        texture, angles_deg=(135,), scales=(0.8,), speckle=0.5, rng=np.random.default_rng(3)
+    )[0]
+    assert noisy.matched and noisy.n_inliers < clean.n_inliers
+    assert noisy.rotation_error_deg < 1.0 and noisy.corner_error_px < 3.0
+    with pytest.raises(ValueError, match="rng"):
+        rotation_scale_sweep(texture, angles_deg=(20,), scales=(1.0,), speckle=0.5)
