@@ -166,8 +166,8 @@ def beam_pattern(angle: np.ndarray, beamwidth: float, kind: str, sidelobe_db: fl
         # two-way b² = exp(-a²/σ²) = 1/2 at a = half → σ² = half² / ln 2
         b = np.exp(-0.5 * np.log(2.0) * (a / half) ** 2)
     elif kind == "sinc":
-        # one-way sinc²(x) = 1/sqrt(2) at x ≈ 0.3497 (two-way −3 dB)
-        b = np.sinc(0.3497 * a / half) ** 2
+        # two-way sinc⁴(x) = 1/2 at x = 0.318917 (np.sinc(x) = sin(πx)/(πx))
+        b = np.sinc(0.318917 * a / half) ** 2
     elif kind == "rect":
         b = (np.abs(a) <= half).astype(float)
     else:

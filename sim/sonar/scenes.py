@@ -48,7 +48,12 @@ def seabed_grid(
     size: float, cells: int, relief: float = 0.0, seed: int = 0
 ) -> tuple[np.ndarray, np.ndarray]:
     """Seabed triangles over a square of side ``size`` m centred on the origin, z = 0 mean,
-    ``cells × cells`` quads (2·cells² triangles), optional smooth relief amplitude (m)."""
+    ``cells × cells`` quads (2·cells² triangles), optional smooth relief amplitude (m).
+
+    MuJoCo 4.0's ray–mesh test is not watertight: a ray passing exactly through a shared
+    triangle edge can miss both triangles (Embree does not). A fan in the vertical plane
+    through a grid line would lose every ray, so ``build_scene`` shifts the grid by a few
+    centimetres off round coordinates."""
     x = np.linspace(-size / 2, size / 2, cells + 1)
     X, Y = np.meshgrid(x, x)
     Z = np.zeros_like(X)
@@ -61,7 +66,8 @@ def seabed_grid(
     V = np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1)
     i = np.arange((cells + 1) ** 2).reshape(cells + 1, cells + 1)
     a, b, c, d = i[:-1, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, :-1].ravel(), i[1:, 1:].ravel()
-    F = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)]).astype(np.int32)
+    F = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
+    F = F.astype(np.int32)
     return V, F
 
 
@@ -101,7 +107,7 @@ def build_scene(
   <option {grav} density="0" viscosity="0"/>
   <asset><mesh name="seabed" vertex="{vtx}" face="{fcs}" inertia="shell"/></asset>
   <worldbody>
-    <geom name="seabed" type="mesh" mesh="seabed" contype="0" conaffinity="0"/>
+    <geom name="seabed" type="mesh" mesh="seabed" pos="0.0371 0.0529 0" contype="0" conaffinity="0"/>
     {"".join(body)}
     <body name="vehicle" pos="{vehicle_pos[0]:g} {vehicle_pos[1]:g} {altitude:g}" quat="{cy:g} 0 0 {sy:g}">
       <freejoint/>

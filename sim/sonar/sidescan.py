@@ -134,19 +134,23 @@ class SideScanSonar:
         return float(np.median(hits.dist[ok] * self._probe_sin[ok]))
 
     def depression_angles(self, altitude: float) -> tuple[np.ndarray, np.ndarray]:
-        """Sorted depression angles θ (rad) and their widths Δθ for a ping at ``altitude``."""
+        """Depression angles θ (rad) of the rays of one fan and their angular widths Δθ.
+
+        Cell edges are the union of a 0.5° grid and the angles at which a flat seabed at
+        ``altitude`` lies at uniform slant-range steps (``ray_oversampling`` per bin, out to
+        the cast cutoff); each ray sits at the centre of its cell so its range footprint is
+        centred on its hit (footprints then tile the range axis)."""
         c = self.config
-        th = [self.uniform_theta, [np.pi / 2]]
-        if np.isfinite(altitude) and altitude < c.max_range:
+        edges = [self.uniform_theta, [np.pi / 2]]
+        if np.isfinite(altitude) and altitude < self.mount.cutoff:
             r0 = max(altitude, c.min_range)
-            n = int(np.ceil(c.ray_oversampling * (c.max_range - r0) / self.bin_width)) + 1
-            r = np.linspace(r0, c.max_range, n)
-            th.append(np.arcsin(np.clip(altitude / r, -1.0, 1.0)))
-        theta = np.unique(np.concatenate(th))
-        theta = theta[theta >= self.theta_lo]
-        mid = 0.5 * (theta[1:] + theta[:-1])
-        edges = np.concatenate([[theta[0]], mid, [np.pi / 2]])
-        return theta, np.diff(edges)
+            r1 = self.mount.cutoff
+            n = int(np.ceil(c.ray_oversampling * (r1 - r0) / self.bin_width)) + 1
+            r = np.linspace(r0, r1, n)
+            edges.append(np.arcsin(np.clip(altitude / r, -1.0, 1.0)))
+        e = np.unique(np.concatenate(edges))
+        e = e[e >= self.theta_lo]
+        return 0.5 * (e[1:] + e[:-1]), np.diff(e)
 
     def _fan(self, theta, dtheta, side_sign):
         """Local directions (N, 3), ∂d/∂θ·Δθ (N, 3) and beam gains (N,) of one side."""
