@@ -168,18 +168,13 @@ class HydroParams:
         return np.concatenate([[self.mass] * 3, self.inertia])
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of (N, 3) arrays (cheaper than np.cross for small N)."""
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
-
-
 class HydroBatch:
     """The model above for N vehicles at once: one numpy pass per physics step.
 
     ``body_wrench`` takes stacked states and returns the world-frame ``xfrc_applied``
-    rows (N, 6) [force; torque] that make MuJoCo integrate the full model.
+    rows (N, 6) [force; torque] that make MuJoCo integrate the full model. All cross
+    products of a step are evaluated in one batched operation (per-step cost is set by
+    the number of numpy calls, not by N, for the handful of vehicles a world holds).
     """
 
     def __init__(self, params: list[HydroParams], rho: float, gravity: float, surface_z: float):
@@ -190,18 +185,26 @@ class HydroBatch:
         self.g = float(gravity)
         self.surface_z = float(surface_z)
         p = params
-        self.m = np.array([q.mass for q in p])
+        self.m = np.array([q.mass for q in p])[:, None]  # (N, 1)
         self.mrb = np.stack([q.rigid_body_mass for q in p])  # (N, 6)
-        self.inertia = self.mrb[:, 3:]
+        self.inertia = self.mrb[:, 3:].copy()
         self.ma = np.stack([q.added_mass for q in p])  # (N, 6)
+        self.ma_lin = self.ma[:, :3].copy()
+        self.ma_rot = self.ma[:, 3:].copy()
         self.dl = np.stack([q.linear_damping for q in p])
         self.dq = np.stack([q.quadratic_damping for q in p])
         self.r_cb = np.stack([q.r_cb for q in p])
-        self.weight = self.m * self.g  # (N,)
-        self.buoyancy = self.rho * np.array([q.volume for q in p]) * self.g  # (N,) fully submerged
-        self.half_h = 0.5 * np.array([q.height for q in p])
+        self.weight = self.m[:, 0] * self.g  # (N,)
+        self.neg_weight = -self.weight[:, None]
+        self.buoyancy = self.rho * np.array([q.volume for q in p]) * self.g  # fully submerged
+        h = np.array([q.height for q in p])
+        self.inv_h = 1.0 / h
+        self.sub_offset = 0.5 + self.surface_z / h
         self.minv = 1.0 / (self.mrb + self.ma)  # diagonal total mass -> element-wise inverse
         self.last_accel = np.zeros((self.n, 6))
+        self._a = np.zeros((self.n, 7, 5))
+        self._b = np.zeros((self.n, 7, 5))
+        self._a[:, 5, :3] = self.r_cb
 
     def body_wrench(
         self,
@@ -214,41 +217,59 @@ class HydroBatch:
     ) -> np.ndarray:
         """xfrc_applied rows (N, 6) for states rot (N,3,3) body->world, pos (N,3) CG world m,
         vel_world (N,3) m/s, omega_body (N,3) rad/s, current_world (N,3) m/s or None, and
-        tau (N,6) body-frame actuator + external wrench. Stores ν̇* in ``last_accel``."""
-        rt = np.swapaxes(rot, 1, 2)
-        v = (rt @ vel_world[:, :, None])[:, :, 0]
+        tau (N,6) body-frame actuator + external wrench. Stores ν̇* in ``last_accel``.
+
+        Written for few numpy calls (each costs ~1 µs whatever N is): the cross products
+        of a step go through one batched evaluation on buffers whose last axis repeats
+        the first two components ([x, y, z, x, y]), so a×b = a[1:4]·b[2:5] − a[2:5]·b[1:4]
+        uses views only."""
         w = omega_body
-        ez = rot[:, 2, :]  # world z axis in body coordinates
+        ez = rot[:, 2, :]  # world z axis in body coordinates (row 3 of body->world)
         if current_world is None:
+            v = (vel_world[:, None, :] @ rot)[:, 0, :]  # R^T v
             vr = v
-            acc_c = None
         else:
-            vc = (rt @ current_world[:, :, None])[:, :, 0]
+            vv = np.stack([vel_world, current_world], axis=1) @ rot
+            v = vv[:, 0, :]
+            vc = vv[:, 1, :]
             vr = v - vc
-            acc_c = -_cross(w, vc)  # ν̇_c for a current constant in the world frame
         nur = np.concatenate([vr, w], axis=1)
         damp = (self.dl + self.dq * np.abs(nur)) * nur
-        ma = self.ma
-        av = ma[:, :3] * vr
-        aw = ma[:, 3:] * w
-        iw = self.inertia * w
-        mv = self.m[:, None] * v
-        c_lin = _cross(w, av + mv)  # C_A + C_RB, linear part
-        c_ang = _cross(vr, av) + _cross(w, aw + iw)
-        # restoring forces: weight along −z_world, buoyancy along +z_world at r_cb
-        sub = np.clip((self.surface_z - pos[:, 2]) / (2.0 * self.half_h) + 0.5, 0.0, 1.0)
+        # buoyancy along +z_world scaled by the submerged fraction of the height
+        sub = np.minimum(np.maximum(self.sub_offset - pos[:, 2] * self.inv_h, 0.0), 1.0)
         fb = (self.buoyancy * sub)[:, None] * ez
-        fw = -self.weight[:, None] * ez
-        rhs_lin = tau[:, :3] + fw + fb - c_lin - damp[:, :3]
-        rhs_ang = tau[:, 3:] + _cross(self.r_cb, fb) - c_ang - damp[:, 3:]
-        if acc_c is not None:
-            rhs_lin = rhs_lin + ma[:, :3] * acc_c
-        acc = np.concatenate([rhs_lin, rhs_ang], axis=1) * self.minv
+        fw = self.neg_weight * ez
+        # cross products: 0 w×(A v_r), 1 w×(m v), 2 v_r×(A v_r), 3 w×(A_ω ω), 4 w×(I ω),
+        # 5 r_B×f_B, 6 w×v_c
+        a = self._a
+        b = self._b
+        a[:, 0, :3] = w
+        a[:, 1, :3] = w
+        a[:, 2, :3] = vr
+        a[:, 3, :3] = w
+        a[:, 4, :3] = w
+        a[:, 6, :3] = w
+        b[:, 0, :3] = self.ma_lin * vr
+        b[:, 1, :3] = self.m * v
+        b[:, 2, :3] = b[:, 0, :3]
+        b[:, 3, :3] = self.ma_rot * w
+        b[:, 4, :3] = self.inertia * w
+        b[:, 5, :3] = fb
+        if current_world is not None:
+            b[:, 6, :3] = vc
+        a[:, :, 3:] = a[:, :, :2]
+        b[:, :, 3:] = b[:, :, :2]
+        c = a[:, :, 1:4] * b[:, :, 2:5] - a[:, :, 2:5] * b[:, :, 1:4]
+        rhs = tau - damp
+        rhs[:, :3] += fw + fb - c[:, 0] - c[:, 1]
+        rhs[:, 3:] += c[:, 5] - c[:, 2] - c[:, 3] - c[:, 4]
+        if current_world is not None:
+            rhs[:, :3] -= self.ma_lin * c[:, 6]  # + M_A ν̇_c with ν̇_c = −ω × v_c
+        acc = rhs * self.minv
         self.last_accel = acc
-        # force that makes MuJoCo's rigid body (with its own gravity) produce `acc`
-        f_lin = self.m[:, None] * acc[:, :3] + _cross(w, mv) - fw
-        f_ang = self.inertia * acc[:, 3:] + _cross(w, iw)
-        out = np.empty((self.n, 6))
-        out[:, :3] = (rot @ f_lin[:, :, None])[:, :, 0]
-        out[:, 3:] = (rot @ f_ang[:, :, None])[:, :, 0]
-        return out
+        # force that makes MuJoCo's rigid body (with its own gravity) produce `acc`:
+        # f = M_RB acc + C_RB(ν) ν − f_gravity; C_RB ν = [w×(m v); w×(I w)]
+        f = self.mrb * acc
+        f[:, :3] += c[:, 1] - fw
+        f[:, 3:] += c[:, 4]
+        return (f.reshape(-1, 2, 3) @ np.swapaxes(rot, 1, 2)).reshape(-1, 6)

@@ -97,6 +97,11 @@ class ThrusterBank:
         # stacked configuration: tau (N,6) = sum over channels of column * force
         self._scatter = np.zeros((self.n_vehicles, self.n))
         self._scatter[self.owner, np.arange(self.n)] = 1.0
+        self._fin_idx = np.flatnonzero(self.is_fin)
+        self._fin_owner = self.owner[self._fin_idx]
+        self._fin_cols = self.columns[self._fin_idx]
+        self._fin_gain = self.f_fwd[self._fin_idx]
+        self._fin_lift = self.lift_gain[self._fin_idx]
 
     def set_dt(self, dt: float) -> None:
         self.decay = np.exp(-float(dt) / self.tc)
@@ -120,15 +125,17 @@ class ThrusterBank:
         c = self.command
         lv = c + (self.level - c) * self.decay
         self.level = lv
-        f = np.where(lv >= 0.0, self.f_fwd, self.f_rev) * lv * np.abs(lv)
-        if self.any_fin and nu_r is not None:
-            nu = nu_r[self.owner]  # (n, 6)
+        f = lv * np.abs(lv) * np.where(lv >= 0.0, self.f_fwd, self.f_rev)
+        if self._fin_idx.size and nu_r is not None:
+            nu = nu_r[self._fin_owner]  # (n_fin, 6)
             u = nu[:, 0]
-            cross = (self.columns * nu).sum(axis=1)
-            fin = self.f_fwd * lv * u * np.abs(u) - self.lift_gain * np.abs(u) * cross
-            f = np.where(self.is_fin, fin, f)
+            au = np.abs(u)
+            cross = (self._fin_cols * nu).sum(axis=1)
+            f[self._fin_idx] = au * (
+                self._fin_gain * lv[self._fin_idx] * u - self._fin_lift * cross
+            )
         self.force = f
-        return self._scatter @ (self.columns * f[:, None])
+        return (self._scatter * f) @ self.columns
 
     def allocate(
         self, vehicle: int, tau: np.ndarray, dofs: np.ndarray, speed_sq: float
