@@ -1,0 +1,215 @@
+"""FastSLAM 2.0 and iSAM2 on the same loop data: a tiny seeded circle scenario generated here
+and the reference's dense-loop map from ``slam.sim2d`` (first loop in CI, two loops slow).
+
+Bounds and why:
+* SLAM must map better than dead reckoning: each estimator's landmark RMSE must be below
+  the RMSE of the map built by placing every landmark from the dead-reckoned pose of its
+  last sighting, computed from the same odometry and observations.
+* iSAM2 is a (nearly) consistent smoother: at least 90 % of its landmarks must lie inside
+  their 99 % (χ²₂ = 9.21) marginal ellipse; its association must neither duplicate nor
+  (beyond the ambiguous-zone discards) miss landmarks.
+* FastSLAM 2.0 with 100 particles is known to be inconsistent (Bailey, Nieto and Nebot,
+  ICRA 2006); on the dense loop its bar is the reference's own FastSLAM 2.0 result (thesis
+  Table 6.1: 7.5 m and 10.0 m errors for landmarks A and B).
+"""
+
+import numpy as np
+import pytest
+
+from slam.estimators.fastslam2 import FastSLAM2
+from slam.types import Odometry, RangeBearing, wrap_angle
+
+CHI2_2DOF_99 = 9.21
+
+
+def circle_scenario(seed: int, n_loops: float = 1.25):
+    """Vehicle on a circle of radius 30 m at 3 m/s, dt 0.1 s, 12 landmarks 10 m inside and
+    outside the circle; odometry noise σ_v 0.3 m/s, σ_lateral 0.02 m/s, σ_ω 3°/s;
+    range-bearing sensor 30 m forward half-disc, σ_r 0.1 m, σ_b 1°, a scan every 3 steps.
+    Returns (landmarks (12, 2), truth poses at scans (S, 3), [(odometry list, observations)])."""
+    rng = np.random.default_rng(seed)
+    radius, speed, dt = 30.0, 3.0, 0.1
+    ang = np.linspace(0.0, 2 * np.pi, 12, endpoint=False)
+    rad = np.where(np.arange(12) % 2 == 0, radius - 10.0, radius + 10.0)
+    lm = np.stack([rad * np.cos(ang), radius + rad * np.sin(ang)], axis=1)
+    omega = speed / radius
+    Q = np.diag([(0.3 * dt) ** 2, (0.02 * dt) ** 2, (np.deg2rad(3.0) * dt) ** 2])
+    R = np.diag([0.1**2, np.deg2rad(1.0) ** 2])
+    x = np.zeros(3)
+    scans, truth, odos = [], [], []
+    n_steps = round(n_loops * 2 * np.pi / omega / dt)
+    for k in range(n_steps):
+        u = np.array([speed * dt, 0.0, omega * dt])
+        odos.append(Odometry(u + rng.multivariate_normal(np.zeros(3), Q), Q))
+        c, s = np.cos(x[2]), np.sin(x[2])
+        x = np.array([x[0] + u[0] * c, x[1] + u[0] * s, float(wrap_angle(x[2] + u[2]))])
+        if (k + 1) % 3:
+            continue
+        d = lm - x[:2]
+        r = np.hypot(d[:, 0], d[:, 1])
+        b = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - x[2])
+        obs = []
+        for i in np.nonzero((r < 30.0) & (np.abs(b) < np.pi / 2))[0]:
+            z = np.array([r[i], b[i]]) + rng.multivariate_normal(np.zeros(2), R)
+            obs.append(RangeBearing([z[0], float(wrap_angle(z[1]))], R, label=int(i)))
+        scans.append((odos, obs))
+        truth.append(x.copy())
+        odos = []
+    return lm, np.array(truth), scans
+
+
+def dead_reckoning_map_rmse(landmarks, scans) -> float:
+    """RMSE of the map from dead reckoning: each landmark placed from its last sighting."""
+    x = np.zeros(3)
+    last = {}
+    for odos, obs in scans:
+        for o in odos:
+            d = o.delta
+            c, s = np.cos(x[2]), np.sin(x[2])
+            x = np.array([x[0] + d[0] * c - d[1] * s, x[1] + d[0] * s + d[1] * c, x[2] + d[2]])
+        for ob in obs:
+            a = x[2] + ob.z[1]
+            last[ob.label] = x[:2] + ob.z[0] * np.array([np.cos(a), np.sin(a)])
+    labs = sorted(last)
+    err = np.array([last[i] for i in labs]) - landmarks[labs]
+    return float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
+
+
+def run_estimator(est, scans):
+    for odos, obs in scans:
+        for o in odos:
+            est.predict(o)
+        if obs:
+            res = est.update(obs)
+            assert res.associations.shape == (len(obs),)
+    return est
+
+
+def nearest_errors(est_lm, true_lm):
+    """Distance from each true landmark to its nearest estimate, and that estimate's index."""
+    d = np.linalg.norm(est_lm[:, None] - true_lm[None], axis=2)
+    j = d.argmin(axis=0)
+    return d[j, np.arange(true_lm.shape[0])], j
+
+
+def _estimators(seed):
+    ests = [
+        ("fastslam2-known", FastSLAM2(rng=np.random.default_rng(seed), association="known")),
+        ("fastslam2-ml", FastSLAM2(rng=np.random.default_rng(seed))),
+    ]
+    try:
+        from slam.estimators.isam2 import ISAM2SLAM
+
+        ests.append(("isam2-ml", ISAM2SLAM()))
+    except ImportError:  # pragma: no cover - gtsam is the optional baselines extra
+        pass
+    return ests
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_circle_loop_both_estimators_map_better_than_dead_reckoning(seed):
+    lm, _, scans = circle_scenario(seed)
+    dr = dead_reckoning_map_rmse(lm, scans)
+    for name, est in _estimators(seed):
+        run_estimator(est, scans)
+        M, C = est.landmarks()
+        assert np.all(np.isfinite(M)) and np.all(np.isfinite(C)), name
+        err, j = nearest_errors(M, lm)
+        rmse = float(np.sqrt(np.mean(err**2)))
+        assert rmse < dr, f"{name}: landmark RMSE {rmse:.2f} m not below dead reckoning {dr:.2f} m"
+        if name != "fastslam2-ml":  # per-particle ML may duplicate after drift (documented)
+            assert M.shape[0] == 12, name
+        if name == "isam2-ml":
+            d = M[j] - lm
+            md2 = np.einsum("ni,nij,nj->n", d, np.linalg.inv(C[j]), d)
+            assert np.mean(md2 < CHI2_2DOF_99) >= 0.9
+        if name.startswith("fastslam2"):
+            w = est.weights
+            assert np.all(np.isfinite(w)) and w.sum() == pytest.approx(1.0)
+
+
+def _dense_loop_run(n_loops: int, seed: int):
+    sim2d = pytest.importorskip("slam.sim2d", reason="needs the 2-D simulator")
+    try:
+        from slam.sim2d import Sim2DConfig, dense_loop_map, simulate_run
+    except ImportError as exc:  # pragma: no cover
+        pytest.skip(f"slam.sim2d incomplete: {exc}")
+    del sim2d
+    try:
+        m = dense_loop_map()
+    except (FileNotFoundError, OSError) as exc:  # pragma: no cover - map file missing
+        pytest.skip(f"dense loop map unavailable: {exc}")
+    cfg = Sim2DConfig(n_loops=n_loops)
+    return simulate_run(m.landmarks, m.waypoints, cfg, np.random.default_rng(seed))
+
+
+def _drive(est, run):
+    for i in range(run.n_scans):
+        est.predict(run.odometry(i))
+        est.update(run.observations(i))
+    return est
+
+
+def _dense_dead_reckoning_rmse(run) -> float:
+    x = np.zeros(3)
+    last = {}
+    for i in range(run.n_scans):
+        d = run.odom_u[i]
+        c, s = np.cos(x[2]), np.sin(x[2])
+        x = np.array([x[0] + d[0] * c - d[1] * s, x[1] + d[0] * s + d[1] * c, x[2] + d[2]])
+        z, lab = run.scan(i)
+        for zz, ll in zip(z, lab):
+            a = x[2] + zz[1]
+            last[int(ll)] = x[:2] + zz[0] * np.array([np.cos(a), np.sin(a)])
+    labs = sorted(last)
+    err = np.array([last[i] for i in labs]) - run.landmarks[labs]
+    return float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
+
+
+def test_dense_loop_first_loop_fastslam2_and_isam2_run_the_same_data():
+    """CI variant on the reference's dense-loop map (Bailey's simulator, first loop, seed 0).
+    FastSLAM 2.0 (known association, like the reference's run) maps all seen landmarks with
+    an RMSE below the reference's FastSLAM error for landmark B (10.0 m); iSAM2 (unknown
+    association) is consistent (>= 90 % inside the 99 % ellipse), duplicates nothing and
+    keeps >= 90 % of the seen landmarks (the rest fall in the ambiguous zone between gates)."""
+    run = _dense_loop_run(1, 0)
+    seen = np.unique(run.obs_label)
+    fs = _drive(FastSLAM2(rng=np.random.default_rng(1), association="known"), run)
+    M, C = fs.landmarks()
+    assert np.array_equal(np.sort(fs.labels), seen)
+    err = np.linalg.norm(M - run.landmarks[fs.labels], axis=1)
+    assert np.all(np.isfinite(C))
+    assert np.sqrt(np.mean(err**2)) < 10.0
+    w = fs.weights
+    assert np.all(np.isfinite(w)) and w.sum() == pytest.approx(1.0)
+
+    isam2 = pytest.importorskip("slam.estimators.isam2")
+    est = _drive(isam2.ISAM2SLAM(), run)
+    M, C = est.landmarks()
+    assert 0.9 * seen.size <= M.shape[0] <= seen.size
+    # consistency: each estimate against its nearest true landmark
+    d = np.linalg.norm(M[:, None] - run.landmarks[None, seen], axis=2)
+    t = d.argmin(axis=1)
+    assert np.unique(t).size == M.shape[0], "two estimates claim the same true landmark"
+    e = M - run.landmarks[seen][t]
+    md2 = np.einsum("ni,nij,nj->n", e, np.linalg.inv(C), e)
+    assert np.mean(md2 < CHI2_2DOF_99) >= 0.9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(5))
+def test_dense_loop_two_loops_isam2_below_1m_and_fastslam2_below_reference(seed):
+    """Full dense-loop runs (2 loops): iSAM2's landmark RMSE is below the 1 m the issue sets
+    for the AEKF, FastSLAM 2.0 (known association) below the reference's FastSLAM error for
+    landmark B (10.0 m) and below dead reckoning."""
+    run = _dense_loop_run(2, seed)
+    dr = _dense_dead_reckoning_rmse(run)
+    fs = _drive(FastSLAM2(rng=np.random.default_rng(seed + 100), association="known"), run)
+    M, _ = fs.landmarks()
+    rmse = np.sqrt(np.mean(np.sum((M - run.landmarks[fs.labels]) ** 2, axis=1)))
+    assert rmse < min(10.0, dr)
+    isam2 = pytest.importorskip("slam.estimators.isam2")
+    est = _drive(isam2.ISAM2SLAM(association="known"), run)
+    M, _ = est.landmarks()
+    rmse = np.sqrt(np.mean(np.sum((M - run.landmarks[est.labels]) ** 2, axis=1)))
+    assert rmse < 1.0
