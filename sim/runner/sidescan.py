@@ -11,14 +11,14 @@ windows. Several regions of one object (a wreck broken into highlights) within o
 window are merged when their ground positions (relative to the vehicle track) lie
 closer than ``merge_radius``.
 
-Each detection is tied to the ping of its centroid (time t_k): the observation is
-``range`` = ground range sqrt(r^2 - h^2) of the centroid's slant range r at the DVL
-altitude h, ``bearing`` = +pi/2 (port) or -pi/2 (starboard) in the body frame at t_k,
-with a covariance from the sonar geometry and the region's extent:
-sigma_r^2 = (bin width)^2 / 12 + (across-track extent / 4)^2 and
-sigma_theta = atan2(along-track extent / 4 + sigma_along, range) with sigma_along the
-along-track spacing of pings. The runner feeds it to SLAM at the pose of t_k
-(sim.runner.lagged).
+Each detection is tied to the ping k nearest its centroid (time t_k): the observation
+comes from the front end's side-scan observation model
+(slam.frontend.observation.range_bearing_from_pixels with a SideScanGeometry built from
+ping k: its bottom-tracked altitude, the along-track spacing speed / ping rate), i.e.
+ground range sqrt(r^2 - h^2) and bearing ~ +90 deg (port) / -90 deg (starboard) seen
+from the pose at ping k, with a covariance from cell sizes and the region's extent.
+Detections whose centroid lies in the water column (slant range < altitude) give no
+observation. The runner feeds it to SLAM at the pose of t_k (sim.runner.lagged).
 
 Scoring uses the simulator's per-sample labels: a detection is a true positive when at
 least ``tp_fraction`` of its region's pixels carry an object id > 0.
@@ -101,6 +101,8 @@ class SidescanProcessor:
         merge_radius: float = 3.0,
         tp_fraction: float = 0.1,
         class_of: Callable[[int], int] | None = None,
+        along_track_beamwidth_deg: float = 0.0,
+        altitude_sigma: float = 0.1,
     ) -> None:
         if not 1 <= hop <= window:
             raise ValueError(f"hop must be in [1, window={window}], got {hop}")
@@ -111,6 +113,9 @@ class SidescanProcessor:
         self.merge_radius = float(merge_radius)
         self.tp_fraction = float(tp_fraction)
         self.class_of = class_of or (lambda oid: 1 if oid > 0 else 0)
+        self.along_track_beamwidth_deg = float(along_track_beamwidth_deg)
+        self.altitude_sigma = float(altitude_sigma)
+        self.horizon = -np.inf  # pings at or before this time are final
         self.pings: list[PingRecord] = []
         self._next_start = 0  # start ping of the next window
         self._owned_until = 0  # pings < this are owned by processed windows
@@ -149,16 +154,20 @@ class SidescanProcessor:
         self._owned_until = own_hi
         self._next_start = a + H
         horizon = self.pings[own_hi - 1].t
+        self.horizon = horizon
         return WindowResult(a, img, overlay, dets, horizon, fp_pixels, bg_pixels, imaged)
 
     def _detections(
         self, a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay
     ) -> list[Detection]:
+        from slam.frontend.observation import SideScanGeometry, range_bearing_from_pixels
+
         S = img.shape[1] // 2
-        cand = []
         flat_seg = seg_labels.ravel()
         order = np.argsort(flat_seg, kind="stable")
         bounds = np.searchsorted(flat_seg[order], np.arange(int(flat_seg.max(initial=0)) + 2))
+        rate = self._ping_rate()
+        cand = []
         for reg in regions:
             if reg.area_px < self.min_area_px:
                 continue
@@ -172,67 +181,66 @@ class SidescanProcessor:
             oid = int(np.bincount(objs).argmax()) if objs.size else 0
             frac = objs.size / max(idx.size, 1)
             overlay.ravel()[idx] = self.class_of(oid) if oid > 0 else 255
-            port = c < S
-            col = round(c)
-            sample = (S - 1 - col) if port else (col - S)
-            sample = int(np.clip(sample, 0, S - 1))
+            port = c < S - 0.5
+            sample = int(np.clip(round((S - 1 - c) if port else (c - S)), 0, S - 1))
             p = self.pings[k]
             rs = float(p.slant_range[sample])
-            h = float(p.altitude)
-            g = float(np.sqrt(max(rs * rs - h * h, 0.25)))
+            g = float(np.sqrt(max(rs * rs - p.altitude**2, 0.0)))
             r0, c0, r1, c1 = reg.bbox
-            bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
-            across = (c1 - c0) * bin_w
-            along = (r1 - r0) * max(p.speed, 0.1) / max(self._ping_rate(), 1e-3)
-            cand.append((k, port, rs, g, reg.area_px, across, along, oid, frac))
+            cand.append([a + r, c, port, g, reg.area_px, (a + r0, c0, a + r1, c1), oid, frac])
         # merge regions of one object: same side, close in along-track (m) and ground range
-        cand.sort(key=lambda x: (x[1], x[0], x[3]))
-        merged: list[list] = []
+        cand.sort(key=lambda x: (x[2], x[0], x[3]))
+        groups: list[list] = []
         for cd in cand:
-            for m in merged:
-                if m[0][1] == cd[1]:
-                    d_al = (
-                        abs(self.pings[m[0][0]].t - self.pings[cd[0]].t) * self.pings[cd[0]].speed
-                    )
-                    if np.hypot(d_al, m[0][3] - cd[3]) < self.merge_radius:
-                        m.append(cd)
+            for grp in groups:
+                m = grp[0]
+                if m[2] == cd[2]:
+                    d_al = abs(cd[0] - m[0]) * max(self.pings[round(cd[0])].speed, 0.1) / rate
+                    if np.hypot(d_al, m[3] - cd[3]) < self.merge_radius:
+                        grp.append(cd)
                         break
             else:
-                merged.append([cd])
+                groups.append([cd])
         out = []
-        for grp in merged:
-            w = np.array([g[4] for g in grp], float)
-            k = round(np.average([g[0] for g in grp], weights=w))
-            port = grp[0][1]
-            rs = float(np.average([g[2] for g in grp], weights=w))
-            g = float(np.average([g[3] for g in grp], weights=w))
-            area = int(w.sum())
-            across = max(g_[5] for g_ in grp)
-            along = max(g_[6] for g_ in grp)
-            oid = max(grp, key=lambda x: x[4])[7]
-            frac = float(np.average([g_[8] for g_ in grp], weights=w))
+        for grp in groups:
+            w = np.array([g_[4] for g_ in grp], float)
+            row = float(np.average([g_[0] for g_ in grp], weights=w))
+            col = float(np.average([g_[1] for g_ in grp], weights=w))
+            k = round(row)
+            port = grp[0][2]
+            bb = np.array([g_[5] for g_ in grp])
+            ext = (float(bb[:, 2].max() - bb[:, 0].min()), float(bb[:, 3].max() - bb[:, 1].min()))
+            big = max(grp, key=lambda x: x[4])
+            oid, frac = big[6], float(np.average([g_[7] for g_ in grp], weights=w))
             p = self.pings[k]
             bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
-            sig_r = np.sqrt(bin_w**2 / 12 + (across / 4) ** 2 + 0.05**2)
-            sig_along = max(p.speed, 0.1) / max(self._ping_rate(), 1e-3)
-            sig_t = np.arctan2(along / 4 + sig_along, g)
-            bearing = np.pi / 2 if port else -np.pi / 2
-            obs = RangeBearing(
-                [g, bearing],
-                np.diag([sig_r**2, sig_t**2]),
-                t=p.t,
-                meta={"object_id": oid, "ping": k},
+            geom = SideScanGeometry(
+                slant_range_max=float(p.slant_range[-1] + bin_w / 2),
+                samples_per_side=S,
+                altitude=max(float(p.altitude), 0.0),
+                along_track_spacing=max(p.speed, 0.05) / rate,
+                slant_range_min=max(float(p.slant_range[0] - bin_w / 2), 0.0),
+                along_track_beamwidth_deg=self.along_track_beamwidth_deg,
+                altitude_sigma=self.altitude_sigma,
             )
+            try:
+                rng_, brg, cov = range_bearing_from_pixels(
+                    geom, np.array([[row - a, col]]), np.array([ext]), ref_row=float(k - a)
+                )
+            except ValueError:  # centroid in the water column (no ground range): no observation
+                continue
+            obs = RangeBearing([rng_[0], brg[0]], cov[0], t=p.t, meta={"object_id": oid, "ping": k})
             x, y, yaw = p.pose_true
-            wxy = np.array([x + g * np.cos(yaw + bearing), y + g * np.sin(yaw + bearing)])
+            wxy = np.array([x + rng_[0] * np.cos(yaw + brg[0]), y + rng_[0] * np.sin(yaw + brg[0])])
+            slant = float(np.hypot(rng_[0], p.altitude))
             out.append(
                 Detection(
                     p.t,
                     k,
                     "port" if port else "starboard",
-                    rs,
-                    g,
-                    area,
+                    slant,
+                    float(rng_[0]),
+                    int(w.sum()),
                     obs,
                     oid,
                     frac >= self.tp_fraction,

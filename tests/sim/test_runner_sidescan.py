@@ -30,7 +30,7 @@ def _threshold_segment(img):
 
 
 def _pings(n, S, obj_pings, obj_sample, h=8.0, dt=0.1, speed=1.5):
-    ranges = np.linspace(0.05, 40.0, S)
+    ranges = (np.arange(S) + 0.5) * 0.2  # bin centres, as SSSPing.slant_range
     out = []
     for k in range(n):
         inten = np.ones(2 * S, np.float32)
