@@ -9,11 +9,13 @@ the autopilot then commands through the depth → pitch outer loop).
 
 Loops (gains from sim.guidance.gains):
 * course: LOS course χ_d (integral LOS when ``ilos_sigma`` > 0), turned into a heading
-  demand ψ_d = χ_d − β with the crab angle β = atan2(v, u) of the velocity over ground
-  (compensates current and sideslip; only above 0.2 m/s);
+  demand ψ_d = χ_d − β with the crab angle β = atan2(v, u) of the velocity over ground,
+  low-pass filtered (time constant ``crab_time_constant``; compensates a steady current;
+  only above 0.2 m/s);
   heading PID → N, derivative on the measured yaw rate.
 * speed: PI on surge speed over ground + damping feedforward → X. The speed demand
-  is reduced near the final waypoint and in sharp turns (heading error > 45°).
+  is reduced near the final waypoint, in sharp turns (heading error > 45°) and, for
+  hovering vehicles, while more than 0.5 m off the depth demand (dive, then transit).
 * depth: heave PID on the depth error + buoyancy feedforward → Z; and pitch PID → M to
   pitch 0 (hovering vehicles) or to θ_d from the depth → pitch loop (torpedo).
   Altitude missions set depth_d = depth + altitude − altitude_d from the state's
@@ -69,12 +71,24 @@ class MissionStatus:
 
 
 class Autopilot:
-    """``Autopilot(mission, gains, ilos_sigma=0.0)``; call ``update(state, dt)`` every
-    control tick; read ``status``."""
+    """``Autopilot(mission, gains, ilos_sigma=0.0, crab_time_constant=10.0)``; call
+    ``update(state, dt)`` every control tick; read ``status``. ``ilos_sigma`` > 0 turns on
+    integral LOS; ``crab_time_constant`` (s) filters the crab angle (0: no crab
+    compensation)."""
 
-    def __init__(self, mission: Mission, gains: AutopilotGains, ilos_sigma: float = 0.0) -> None:
+    def __init__(
+        self,
+        mission: Mission,
+        gains: AutopilotGains,
+        ilos_sigma: float = 0.0,
+        crab_time_constant: float = 10.0,
+    ) -> None:
         if not (math.isfinite(ilos_sigma) and ilos_sigma >= 0):
             raise ValueError(f"ilos_sigma must be >= 0, got {ilos_sigma!r}")
+        if not (math.isfinite(crab_time_constant) and crab_time_constant >= 0):
+            raise ValueError(f"crab_time_constant must be >= 0 s, got {crab_time_constant!r}")
+        self.crab_time_constant = float(crab_time_constant)
+        self._beta = 0.0
         self.mission = mission
         self.gains = gains
         self.ilos_sigma = float(ilos_sigma)
@@ -159,7 +173,12 @@ class Autopilot:
         los = los_guidance(pos, path[leg], path[leg + 1], g.lookahead, self._ilos, self.ilos_sigma)
         dist_wp = float(np.hypot(*(pos - path[leg + 1])))
         U = math.hypot(vel[0], vel[1])
-        beta = math.atan2(vel[1], vel[0]) if U > 0.2 and vel[0] > 0 else 0.0
+        if self.crab_time_constant > 0 and U > 0.2 and vel[0] > 0:
+            # crab angle over ground, low-pass filtered: unfiltered it couples the sway
+            # of every turn back into the heading demand and sets up a yaw limit cycle
+            a = 1.0 - math.exp(-dt / self.crab_time_constant)
+            self._beta += a * (math.atan2(vel[1], vel[0]) - self._beta)
+        beta = self._beta
         tau = np.zeros(6)
         if self.leg < n_legs:
             if self.ilos_sigma > 0:
@@ -171,6 +190,12 @@ class Autopilot:
             # slow down for the final approach and for large heading errors
             if self.leg == n_legs - 1:
                 speed_d = min(speed_d, max(0.3 * m.speed, 0.5 * dist_wp))
+            if not g.depth_by_pitch:
+                # hovering vehicles dive before they transit: the Munk moment
+                # (A33 - A11) u w of a flat hull would otherwise out-muscle the pitch
+                # authority of the vertical thrusters
+                dz = abs(state.depth - self._depth_demand(state))
+                speed_d *= min(1.0, max(0.2, 1.5 - dz))
             herr = abs(wrap(psi_d - yaw))
             if herr > math.pi / 4:
                 speed_d *= max(0.3, math.cos(herr))

@@ -19,7 +19,12 @@ for a mass–damper–spring plant; Åström & Murray §11.3 for the PI):
   lookahead Δ_z = 2 L, ki_z = kp_z (U/Δ_z)/10 (trims out residual buoyancy).
 * LOS lookahead Δ = clip(3 L, 3, 10) m (Fossen recommends 1.5–2.5 L for ships; a little
   more for slow, under-actuated AUVs), cruise speed = min(nominal, 0.8 U_max) with
-  U_max from d_l U + d_q U² = X_max.
+  U_max from d_l U + d_q U² = X_max, and, for thruster-steered vehicles, low enough that
+  the Munk moment (A22 − A11) U² · 0.3 rad (yaw; A33 in pitch) takes at most half the
+  yaw/pitch authority: the world model has no hull lift or fins to stabilise a box
+  hull, so above that speed the heading loop saturates and limit-cycles.
+* Munk moment as a negative stiffness (Fossen 2011 §6.4): k_yaw = −(A22 − A11) U²,
+  k_pitch = ρ g V BG − (A33 − A11) U²; the P gain beats it (kp = M ω² − k).
 
 τ_max per DOF is what the vehicle's thrust allocation (least squares over its controlled
 DOFs, as sim.thrusters.ThrusterBank.allocate) delivers for a pure demand in that DOF
@@ -42,6 +47,7 @@ __all__ = [
     "design_gains",
     "max_wrench",
     "max_wrench_from_columns",
+    "split_authority",
 ]
 
 DOF = ("X", "Y", "Z", "K", "M", "N")
@@ -56,7 +62,8 @@ class VehiclePlant:
     """Diagonal plant of one vehicle, body frame (x fwd, y port, z up).
 
     kind; length m; inertia (6,) M_RB + M_A; linear_damping, quadratic_damping (6,);
-    stiffness (6,) restoring (roll, pitch: ρ g V BG), N·m/rad; net_buoyancy B − W, N;
+    stiffness (6,) restoring, N·m/rad (roll: ρ g V BG; pitch: that minus the Munk term
+    (A33 − A11) U²; yaw: −(A22 − A11) U²; negative = destabilising); net_buoyancy B − W, N;
     max_effort (6,) N / N·m (inf = unknown); controlled (6,) bool; cruise_speed m/s.
     """
 
@@ -81,30 +88,49 @@ class VehiclePlant:
         controlled,
         rho: float = 1025.0,
         cruise_speed: float | None = None,
+        munk_speed_limit: bool = True,
     ) -> VehiclePlant:
         """From a ``sim.hydrodynamics.HydroParams`` (mass, inertia (3,), volume, r_cb,
         added_mass, linear_damping, quadratic_damping)."""
         m_rb = np.concatenate([[hydro.mass] * 3, np.asarray(hydro.inertia, float)])
+        am = np.asarray(hydro.added_mass, float)
         B = rho * GRAVITY * hydro.volume
         bg = float(hydro.r_cb[2])
-        k = np.zeros(6)
-        k[3] = k[4] = max(0.0, B * bg)
         max_effort = np.asarray(max_effort, float)
+        controlled = np.asarray(controlled, bool)
         dl = np.asarray(hydro.linear_damping, float)
         dq = np.asarray(hydro.quadratic_damping, float)
         u_max = _max_speed(dl[0], dq[0], max_effort[0])
         u = NOMINAL_SPEED.get(kind, 1.0) if cruise_speed is None else cruise_speed
+        u = float(min(u, 0.8 * u_max))
+        if munk_speed_limit:
+            # the destabilising Munk moment (A_jj - A_11) U² at a 0.3 rad heading/pitch
+            # error may take at most half the yaw/pitch authority (propeller-driven
+            # authority does not grow with speed; fin authority does, so a finned
+            # vehicle passes munk_speed_limit=False)
+            for dof, a_side in ((5, am[1]), (4, am[2])):
+                excess = (a_side - am[0]) * 0.3
+                if excess > 0 and controlled[dof] and math.isfinite(max_effort[dof]):
+                    u = min(u, math.sqrt(0.5 * max_effort[dof] / excess))
+        # restoring stiffness: hydrostatic B·BG in roll and pitch, minus the Munk moment
+        # (A_33 - A_11) U² θ in pitch and (A_22 - A_11) U² ψ in yaw (Fossen 2011 §6.4),
+        # linearised at the cruise speed — destabilising for bodies that are longer than
+        # they are high/wide, and it must be beaten by the P gain.
+        k = np.zeros(6)
+        k[3] = max(0.0, B * bg)
+        k[4] = max(0.0, B * bg) - (am[2] - am[0]) * u * u
+        k[5] = -(am[1] - am[0]) * u * u
         return cls(
             kind=kind,
             length=float(length),
-            inertia=m_rb + np.asarray(hydro.added_mass, float),
+            inertia=m_rb + am,
             linear_damping=dl,
             quadratic_damping=dq,
             stiffness=k,
             net_buoyancy=B - hydro.mass * GRAVITY,
             max_effort=max_effort,
             controlled=np.asarray(controlled, bool),
-            cruise_speed=float(min(u, 0.8 * u_max)),
+            cruise_speed=u,
         )
 
 
@@ -148,6 +174,35 @@ def max_wrench_from_columns(columns, is_fin, max_forward, max_reverse, controlle
         lim = np.where((f >= 0) | fin, fwd, rev)
         nz = np.abs(f) > 1e-12
         out[dof_index] = float(np.min(lim[nz] / np.abs(f[nz]))) if nz.any() else 0.0
+    return out
+
+
+#: share of each DOF's pure authority it may demand (surge, sway, heave, roll, pitch, yaw)
+AUTHORITY_WEIGHTS = (0.5, 0.3, 0.3, 0.3, 0.7, 0.5)
+
+
+def split_authority(
+    columns, is_fin, max_forward, max_reverse, controlled, speed, weights=AUTHORITY_WEIGHTS
+) -> np.ndarray:
+    """(6,) demand limits such that ANY simultaneous demand within them is allocated
+    without saturating a channel: limit_j = w_j τmax_j, with the weights scaled down
+    until every channel's worst-case load Σ_j |f_ij| limit_j / F_i <= 1 (the allocation
+    is linear in tau, so the bound is exact). This keeps e.g. the pitch moment of the
+    vertical thrusters available while they also push the vehicle down — clipping one
+    channel of a saturated pseudo-inverse solution otherwise destroys the moment."""
+    dofs = np.asarray(controlled, bool)
+    tmax = max_wrench_from_columns(columns, is_fin, max_forward, max_reverse, dofs, speed)
+    cols = np.asarray(columns, float).T.copy()
+    fin = np.asarray(is_fin, bool)
+    cols[:, fin] *= speed * abs(speed)
+    lim = np.where(fin, max_forward, np.minimum(max_forward, max_reverse))
+    pinv = np.linalg.pinv(cols[dofs], rcond=1e-6)  # (k, ndof)
+    w = np.asarray(weights, float)[dofs]
+    limits = w * tmax[dofs]
+    load = (np.abs(pinv) * limits[None, :]).sum(axis=1) / lim
+    scale = 1.0 / max(1.0, float(load.max()))
+    out = np.zeros(6)
+    out[dofs] = limits * scale
     return out
 
 
@@ -209,7 +264,7 @@ def design_gains(plant: VehiclePlant) -> AutopilotGains:
     depth = _second_order(M[2], dl[2] + 2 * dq[2] * w_ref, k[2], tmax[2], 2.0)
     sway = _second_order(M[1], dl[1] + 2 * dq[1] * w_ref, k[1], tmax[1], 2.0)
     station_surge = _second_order(M[0], dl[0] + 2 * dq[0] * w_ref, k[0], tmax[0], 2.0)
-    pitch = _second_order(M[4], dl[4] + 2 * dq[4] * r_ref, k[4], tmax[4], 0.3, integral=False)
+    pitch = _second_order(M[4], dl[4] + 2 * dq[4] * r_ref, k[4], tmax[4], 0.3)
     roll = _second_order(M[3], dl[3] + 2 * dq[3] * r_ref, k[3], tmax[3], 0.3, integral=False)
     depth_by_pitch = not plant.controlled[2]
     dz = 2.0 * plant.length

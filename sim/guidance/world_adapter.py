@@ -20,6 +20,7 @@ from sim.guidance.gains import (
     _max_speed,
     design_gains,
     max_wrench_from_columns,
+    split_authority,
 )
 from sim.guidance.missions import Mission, WorldBounds
 
@@ -80,7 +81,7 @@ def plant_for(world, name: str, cruise_speed: float | None = None) -> VehiclePla
     # fins' authority grows with speed²: evaluate at the speed the vehicle can reach
     x_max = max_wrench_from_columns(*args, dofs, 0.0)[0]
     u_fin = min(u0, 0.8 * _max_speed(hydro.linear_damping[0], hydro.quadratic_damping[0], x_max))
-    tmax = max_wrench_from_columns(*args, dofs, u_fin)
+    tmax = split_authority(*args, dofs, u_fin)
     return VehiclePlant.from_hydro(
         h.kind,
         h.model.envelope[0],
@@ -89,6 +90,7 @@ def plant_for(world, name: str, cruise_speed: float | None = None) -> VehiclePla
         dofs,
         rho=world.water.density,
         cruise_speed=u0,
+        munk_speed_limit=not bool(np.any(bank.is_fin[lo:hi])),
     )
 
 
