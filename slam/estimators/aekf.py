@@ -463,6 +463,7 @@ def associate(
     method: str = "ml",
     exclusive: bool = True,
     x_lin=None,
+    return_scores: bool = False,
 ):
     """Gated data association (Bailey's ``data_associate``, vectorized).
 
@@ -473,7 +474,8 @@ def associate(
     ``exclusive`` (beyond Bailey, who lets two observations of a scan update one landmark),
     a landmark claimed by several observations keeps only the best; the others are rejected.
 
-    Returns ``(idx (k,) int landmark index or -1, new (k,) bool, nis (k,) float)``.
+    Returns ``(idx (k,) int landmark index or -1, new (k,) bool, nis (k,) float)``, and
+    with ``return_scores`` also the full ``nis (k, n)`` matrix.
     """
     if method not in ("ml", "nn"):
         raise ValueError(f"method must be 'ml' or 'nn', got {method!r}")
@@ -482,7 +484,8 @@ def associate(
     idx = np.full(k, -1, dtype=np.intp)
     best_nis = np.full(k, np.nan)
     if n == 0:
-        return idx, np.ones(k, dtype=bool), best_nis
+        out = idx, np.ones(k, dtype=bool), best_nis
+        return (*out, nis) if return_scores else out
     inside = nis < reject_gate
     score = np.where(inside, nd if method == "ml" else nis, np.inf)
     j = np.argmin(score, axis=1)
@@ -499,7 +502,7 @@ def associate(
         dup[1:] = j[sel][1:] == j[sel][:-1]
         idx[sel[dup]] = -1
         best_nis[sel[dup]] = np.nan
-    return idx, new, best_nis
+    return (idx, new, best_nis, nis) if return_scores else (idx, new, best_nis)
 
 
 # --------------------------------------------------------------------------- the class
@@ -517,6 +520,9 @@ class AEKFConfig:
     batch : batch update of all observations of a scan (Bailey's default) or sequential.
     joseph : Joseph-form covariance update instead of ``P - W1 W1ᵀ``.
     jacobians : "standard" EKF, or "fej" first-estimates Jacobians (consistency).
+    fej_gating : with FEJ, gate the association with the FEJ Jacobians too; default False
+        gates with the current-estimate Jacobians (first estimates can be far off after a
+        loop closure, and a wrong S in the gate creates duplicate landmarks).
     max_range_m, fov_half_angle_rad : the sensor footprint used by state reduction.
     max_misses : state reduction: a landmark predicted well inside the footprint
         (``reduction_margin_m`` inside its range edge and 10° inside its angle edge) on
@@ -534,6 +540,7 @@ class AEKFConfig:
     fov_half_angle_rad: float = math.pi / 2
     max_misses: int | None = None
     reduction_margin_m: float = 3.0
+    fej_gating: bool = False
 
     def __post_init__(self) -> None:
         if not (self.reject_gate > 0 and math.isfinite(self.reject_gate)):
@@ -645,6 +652,7 @@ class AEKFSlam:
         if k == 0:
             self._reduce(np.zeros(0, dtype=np.intp))
             return UpdateResult(np.zeros(0, np.intp), np.zeros(0, bool), np.zeros(0))
+        compatible = None  # landmarks some observation could be (NIS < augment gate)
         if cfg.association == "known":
             idx, new = self._associate_known(labels)
             nis = np.full(k, np.nan)
@@ -653,7 +661,7 @@ class AEKFSlam:
                 s, _ = association_scores(self.x, self.P, z[m], R[m], x_lin=x_lin)
                 nis[m] = s[np.arange(m.sum()), idx[m]]
         else:
-            idx, new, nis = associate(
+            idx, new, nis, scores = associate(
                 self.x,
                 self.P,
                 z,
@@ -662,8 +670,10 @@ class AEKFSlam:
                 augment_gate=cfg.augment_gate,
                 method=cfg.association,
                 exclusive=cfg.exclusive,
-                x_lin=x_lin,
+                x_lin=x_lin if cfg.fej_gating else None,
+                return_scores=True,
             )
+            compatible = (scores < cfg.augment_gate).any(axis=0)
         known = idx >= 0
         if np.any(known):
             update(
@@ -691,7 +701,7 @@ class AEKFSlam:
             assoc[new] = n + np.arange(m)
         if np.any(known):
             self.hits[idx[known]] += 1
-        assoc = self._reduce(assoc)
+        assoc = self._reduce(assoc, compatible)
         return UpdateResult(assoc, new, nis)
 
     def pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -737,8 +747,11 @@ class AEKFSlam:
             new[nw[~keep]] = False
         return idx, new
 
-    def _reduce(self, assoc: np.ndarray) -> np.ndarray:
-        """Count misses of landmarks predicted inside the footprint; remove persistent ones."""
+    def _reduce(self, assoc: np.ndarray, compatible=None) -> np.ndarray:
+        """Count misses of landmarks predicted inside the footprint that no observation of
+        the scan was compatible with (NIS < augment gate: an observation rejected as
+        ambiguous may be this landmark); remove landmarks missed ``max_misses`` scans in a
+        row (the thesis's state reduction of corrupted landmarks)."""
         cfg = self.config
         n = self.n_landmarks
         if cfg.max_misses is None or n == 0:
@@ -754,6 +767,8 @@ class AEKFSlam:
         seen[assoc[assoc >= 0]] = True
         self.misses[seen] = 0
         miss = inside & ~seen
+        if compatible is not None:
+            miss[: compatible.size] &= ~compatible
         self.misses[miss] += 1
         drop = self.misses >= cfg.max_misses
         if not np.any(drop):
