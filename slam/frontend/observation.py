@@ -22,7 +22,8 @@ Image layouts (the geometry dataclasses below, frozen; ``slam`` never imports ``
   r_max / H metres, the sonar at the middle of the bottom edge (row H, column W/2 in edge
   coordinates), x up the image, y to the left (port).
 * **MSIS** (:class:`MSISGeometry`), shape (n_steps, n_bins): row k = head angle
-  θ_k = sector_centre − sector/2 + (k + ½)·step (ccw from body x), column = range bin.
+  θ_k = sector_centre − sector/2 + k·step (ccw from body x; the simulator's
+  ``MSISSonar.head_angles``), column = range bin. Fractional rows interpolate linearly.
 
 Covariance: every native coordinate (slant range, along-track position, beam angle, pixel
 x/y) is uncertain by its cell size and by the region's extent, each modelled as a uniform
@@ -50,7 +51,8 @@ class SideScanGeometry:
     """slant_range_max / slant_range_min: m (sample ranges); samples_per_side: S;
     altitude: m above a flat seabed; along_track_spacing: m between pings (speed / ping
     rate); along_track_beamwidth_deg: horizontal −3 dB beam width (footprint grows with
-    range); altitude_sigma: m, 1-σ altitude error."""
+    range); altitude_sigma: m, 1-σ altitude error; transducer_y: m, lateral lever arm of
+    the transducers (port at +transducer_y, starboard at −transducer_y in the body frame)."""
 
     slant_range_max: float
     samples_per_side: int
@@ -59,9 +61,11 @@ class SideScanGeometry:
     slant_range_min: float = 0.0
     along_track_beamwidth_deg: float = 0.0
     altitude_sigma: float = 0.0
+    transducer_y: float = 0.0
 
     def __post_init__(self) -> None:
         _pos("slant_range_max", self.slant_range_max)
+        _pos("transducer_y", self.transducer_y, zero_ok=True)
         _pos("slant_range_min", self.slant_range_min, zero_ok=True)
         if self.slant_range_min >= self.slant_range_max:
             raise ValueError(
@@ -223,7 +227,7 @@ def _sss(g: SideScanGeometry, c: np.ndarray, e: np.ndarray, ref_row):
     var_g = dg_dr**2 * var_r + (g.altitude / ground) ** 2 * g.altitude_sigma**2
     ref = row if ref_row is None else np.broadcast_to(np.asarray(ref_row, float), row.shape)
     x = (row - ref) * g.along_track_spacing
-    y = np.where(port, ground, -ground)
+    y = np.where(port, ground + g.transducer_y, -ground - g.transducer_y)
     foot = slant * np.radians(g.along_track_beamwidth_deg)
     var_x = (g.along_track_spacing**2 * (1.0 + e[:, 0] ** 2) + foot**2) / 12.0
     return _xy_cov_to_rb(x, y, var_x, var_g)
@@ -270,7 +274,7 @@ def _fls(g: FLSGeometry, c: np.ndarray, e: np.ndarray):
 
 
 def _msis_angles(g: MSISGeometry, k: np.ndarray) -> np.ndarray:
-    return np.radians(g.sector_center_deg - g.sector_deg / 2.0 + (k + 0.5) * g.step_deg)
+    return np.radians(g.sector_center_deg - g.sector_deg / 2.0 + k * g.step_deg)
 
 
 def _msis(g: MSISGeometry, c: np.ndarray, e: np.ndarray):
@@ -413,7 +417,11 @@ def pixel_from_body(geometry: Geometry, xy: np.ndarray, *, ref_row: float = 0.0)
     x, y = p[:, 0], p[:, 1]
     if isinstance(geometry, SideScanGeometry):
         g = geometry
-        ground = np.abs(y)
+        ground = np.abs(y) - g.transducer_y
+        if np.any(ground < 0):
+            raise ValueError(
+                f"|y| must exceed transducer_y {g.transducer_y} m for a side-scan point"
+            )
         slant = np.sqrt(ground**2 + g.altitude**2)
         u = (slant - g.slant_range_min) / g.bin_width - 0.5
         s = g.samples_per_side
@@ -435,7 +443,7 @@ def pixel_from_body(geometry: Geometry, xy: np.ndarray, *, ref_row: float = 0.0)
         return np.stack([h - sx / g.pixel_size - 0.5, w / 2.0 - sy / g.pixel_size - 0.5], axis=1)
     if isinstance(geometry, MSISGeometry):
         g = geometry
-        k = (np.degrees(theta) - (g.sector_center_deg - g.sector_deg / 2.0)) / g.step_deg - 0.5
+        k = (np.degrees(theta) - (g.sector_center_deg - g.sector_deg / 2.0)) / g.step_deg
         k = np.mod(k + 0.5, 360.0 / g.step_deg) - 0.5 if g.sector_deg >= 360 else k
         i = (slant - g.range_min) / g.bin_width - 0.5
         return np.stack([k, i], axis=1)
