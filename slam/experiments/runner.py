@@ -109,7 +109,8 @@ class RunResult:
     """One run. Errors in m; ``nees (S,)`` vehicle-pose NEES after each scan's update;
     ``nis (K,)`` NIS of every associated observation; ``time_s`` wall time of the
     estimator's predict/update calls only. Arrays for figures: ``est_poses (S, 3)``,
-    ``true_poses (S, 3)``, ``pose_cov (S, 3, 3)``, ``lm_est (m, 2)``, ``lm_cov (m, 2, 2)``."""
+    ``true_poses (S, 3)``, ``pose_cov (S, 3, 3)``, ``lm_est (m, 2)``, ``lm_cov (m, 2, 2)``, ``lm_labels (m,)`` the
+    simulator label each landmark was created from (estimators that keep it; else None)."""
 
     seed: int
     filter: str
@@ -130,6 +131,7 @@ class RunResult:
     pose_cov: np.ndarray
     lm_est: np.ndarray
     lm_cov: np.ndarray
+    lm_labels: np.ndarray | None = None
 
     def summary(self) -> dict:
         """JSON-friendly scalars."""
@@ -223,6 +225,7 @@ def _run_once(spec, filter_name, seed, estimator_params, sim_run) -> RunResult:
         pose_cov=pose_cov,
         lm_est=lm_est,
         lm_cov=lm_cov,
+        lm_labels=None if labels is None else np.asarray(labels).copy(),
     )
 
 
