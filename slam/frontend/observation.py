@@ -18,9 +18,10 @@ Image layouts (the geometry dataclasses below, frozen; ``slam`` never imports ``
 * **FLS, polar** (:class:`FLSGeometry`, ``layout="polar"``), shape (n_bins, n_beams): row =
   range bin (row 0 nearest), column = beam, beam j centred at
   θ_j = +fov/2 − (j + ½)·fov/n_beams (column 0 is the port edge, as displayed).
-* **FLS, Cartesian fan** (``layout="cartesian"``), shape (H, W): square pixels of
-  r_max / H metres, the sonar at the middle of the bottom edge (row H, column W/2 in edge
-  coordinates), x up the image, y to the left (port).
+* **FLS, Cartesian fan** (``layout="cartesian"``), shape (H, W): square pixels of size
+  res (default r_max / H), pixel (i, j) centred at x = r_max − (i + ½)·res forward and
+  y = y_max − (j + ½)·res to port (default y_max = W·res/2: the sonar at the middle of the
+  bottom edge); the simulator's ``sim.sonar.fls.FanImage`` convention.
 * **MSIS** (:class:`MSISGeometry`), shape (n_steps, n_bins): row k = head angle
   θ_k = sector_centre − sector/2 + k·step (ccw from body x; the simulator's
   ``MSISSonar.head_angles``), column = range bin. Fractional rows interpolate linearly.
@@ -89,7 +90,8 @@ class FLSGeometry:
     beamwidth_deg: one beam's −3 dB width; layout: "polar" or "cartesian"; image_shape:
     (H, W) of a Cartesian fan image (required for that layout); altitude: m above the
     seabed for projecting slant to horizontal range (None: targets at sonar depth, slant =
-    horizontal)."""
+    horizontal); fan_resolution, fan_y_max: Cartesian fan pixel size and port edge, m
+    (defaults range_max / H and W·res / 2)."""
 
     range_max: float
     n_bins: int = 0
@@ -100,12 +102,18 @@ class FLSGeometry:
     layout: str = "polar"
     image_shape: tuple[int, int] | None = None
     altitude: float | None = None
+    fan_resolution: float | None = None
+    fan_y_max: float | None = None
 
     def __post_init__(self) -> None:
         _pos("range_max", self.range_max)
         _pos("range_min", self.range_min, zero_ok=True)
         if self.range_min >= self.range_max:
             raise ValueError(f"range_min {self.range_min} must be < range_max {self.range_max}")
+        if self.fan_resolution is not None:
+            _pos("fan_resolution", self.fan_resolution)
+        if self.fan_y_max is not None:
+            _pos("fan_y_max", self.fan_y_max)
         if not 0 < self.horizontal_fov_deg <= 360:
             raise ValueError(f"horizontal_fov_deg = {self.horizontal_fov_deg}: allowed (0, 360]")
         _pos("beamwidth_deg", self.beamwidth_deg, zero_ok=True)
@@ -136,7 +144,16 @@ class FLSGeometry:
     @property
     def pixel_size(self) -> float:
         """m per pixel of the Cartesian fan image."""
+        if self.fan_resolution is not None:
+            return float(self.fan_resolution)
         return self.range_max / self.image_shape[0]
+
+    @property
+    def y_max(self) -> float:
+        """m, lateral (port) coordinate of the fan image's left edge."""
+        if self.fan_y_max is not None:
+            return float(self.fan_y_max)
+        return self.image_shape[1] * self.pixel_size / 2.0
 
 
 @dataclass(frozen=True)
@@ -258,10 +275,9 @@ def _fls(g: FLSGeometry, c: np.ndarray, e: np.ndarray):
         var_r = g.bin_width**2 * (1.0 + e[:, 0] ** 2) / 12.0
         var_t = (max(bw, g.beam_spacing) ** 2 + (e[:, 1] * g.beam_spacing) ** 2) / 12.0
         return _polar(slant, theta, var_r, var_t, g.altitude, "FLS detection")
-    h, w = g.image_shape
     ps = g.pixel_size
-    x = (h - (c[:, 0] + 0.5)) * ps
-    y = (w / 2.0 - (c[:, 1] + 0.5)) * ps
+    x = g.range_max - (c[:, 0] + 0.5) * ps
+    y = g.y_max - (c[:, 1] + 0.5) * ps
     vx = ps**2 * (1.0 + e[:, 0] ** 2) / 12.0
     vy = ps**2 * (1.0 + e[:, 1] ** 2) / 12.0
     slant, theta, cov = _xy_cov_to_rb(x, y, vx, vy)
@@ -438,9 +454,9 @@ def pixel_from_body(geometry: Geometry, xy: np.ndarray, *, ref_row: float = 0.0)
             i = (slant - g.range_min) / g.bin_width - 0.5
             j = (np.radians(g.horizontal_fov_deg) / 2.0 - theta) / g.beam_spacing - 0.5
             return np.stack([i, j], axis=1)
-        h, w = g.image_shape
         sx, sy = slant * np.cos(theta), slant * np.sin(theta)
-        return np.stack([h - sx / g.pixel_size - 0.5, w / 2.0 - sy / g.pixel_size - 0.5], axis=1)
+        ps = g.pixel_size
+        return np.stack([(g.range_max - sx) / ps - 0.5, (g.y_max - sy) / ps - 0.5], axis=1)
     if isinstance(geometry, MSISGeometry):
         g = geometry
         k = (np.degrees(theta) - (g.sector_center_deg - g.sector_deg / 2.0)) / g.step_deg
