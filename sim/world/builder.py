@@ -332,6 +332,7 @@ def build_world(spec: WorldSpec) -> World:
 
     s = mujoco.MjSpec()
     s.modelname = "undersea_world"
+    s.compiler.degree = False  # angles (joint ranges, spring references) in radians
     s.option.timestep = float(spec.timestep)
     s.option.gravity = [0.0, 0.0, -water.gravity]
     s.option.density = 0.0

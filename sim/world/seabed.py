@@ -142,6 +142,7 @@ class Seabed:
 
 def _smooth_noise(shape: tuple[int, int], sigma_px: float, rng: np.random.Generator) -> np.ndarray:
     n = gaussian_filter(rng.standard_normal(shape), sigma=max(sigma_px, 0.5), mode="wrap")
+    n -= n.mean()
     s = n.std()
     return n / s if s > 0 else n
 
@@ -164,7 +165,7 @@ def _check_grid(grid: np.ndarray) -> np.ndarray:
         iy, ix = np.argwhere(bad)[0]
         raise ValueError(
             f"seabed.grid has {int(bad.sum())} non-finite depths (first at row {iy}, column {ix}: "
-            f"{g[iy, ix]!r}); allowed: finite depths in metres, positive down"
+            f"{float(g[iy, ix])!r}); allowed: finite depths in metres, positive down"
         )
     if (g <= 0).any():
         raise ValueError(
@@ -202,7 +203,9 @@ def height_grid(spec: SeabedSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         # asymmetric ripple profile (steeper lee side): sin + 0.25 sin(2·)
         prof = np.sin(phase) + 0.25 * np.sin(2 * phase)
         prof /= np.abs(prof).max()
-        amp = 0.5 * spec.ripple_height * (1.0 + 0.3 * _smooth_noise((ny, nx), 20.0 / r, rng))
+        amp = (
+            0.5 * spec.ripple_height * (1.0 + 0.3 * np.tanh(_smooth_noise((ny, nx), 20.0 / r, rng)))
+        )
         z += amp * prof
     elif spec.kind == "slope":
         th = np.deg2rad(spec.slope_direction_deg)
