@@ -119,3 +119,39 @@ def test_fls_fan_pixels_agree_with_simulator_fan_image(rng):
     r_sim, b_sim = fan.pixel_to_range_bearing(pix[:, 0], pix[:, 1])
     np.testing.assert_allclose(r, r_sim, rtol=1e-12)
     np.testing.assert_allclose(b, b_sim, atol=1e-12)
+
+
+def test_msis_cells_agree_with_simulator_cells_to_world(rng):
+    """Our MSIS (row, bin) → (range, bearing) equals MSISScan.cells_to_world for a
+    stationary vehicle (both assume the beam axis, zero tilt)."""
+    from sim.sonar.msis import MSISSonar
+    from slam.frontend.observation import MSISGeometry, range_bearing_from_pixels
+
+    sc = build_scene(altitude=2.0, seabed_cells=10)
+    cfg = preset("msis", step_deg=6.0, rays_vertical=8, rays_horizontal=3)
+    scan = MSISSonar(
+        cfg,
+        sc.model,
+        sc.data,
+        sc.sites["msis"],
+        sc.geom_object_id,
+        sc.geom_reflectivity,
+        sc.water,
+        "mujoco",
+    ).scan(sc.data, rng)
+    geom = MSISGeometry(
+        range_max=cfg.max_range,
+        range_min=cfg.min_range,
+        n_bins=cfg.n_bins,
+        step_deg=cfg.step_deg,
+        sector_deg=cfg.sector_deg,
+        sector_center_deg=cfg.sector_center_deg,
+    )
+    k = rng.integers(0, scan.head_angle.size, 40)
+    i = rng.integers(0, cfg.n_bins, 40)
+    r, b, _ = range_bearing_from_pixels(geom, np.column_stack([k, i]).astype(float))
+    world = scan.cells_to_world(k, i)
+    sensor = scan.sensor_position[k]
+    np.testing.assert_allclose(
+        world[:, :2] - sensor[:, :2], np.column_stack([r * np.cos(b), r * np.sin(b)]), atol=1e-9
+    )
