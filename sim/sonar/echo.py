@@ -63,7 +63,8 @@ def _splat_energy(rows, a, b, e, n_rows, n_bins):
     bbi = base + ib.astype(np.int64)
     idx = np.concatenate([ba, ba + 1, bbi, bbi + 1])
     val = np.concatenate([rho * (1.0 - fa), rho * fa, -rho * (1.0 - fb), -rho * fb])
-    d2 = np.bincount(idx, weights=val, minlength=n_rows * stride).reshape(n_rows, stride)
+    d2 = np.bincount(idx, weights=val, minlength=n_rows * stride).astype(np.float64, copy=False)
+    d2 = d2.reshape(n_rows, stride)
     out = np.ascontiguousarray(np.cumsum(d2, axis=1)[:, 1 : n_bins + 1])
     np.maximum(out, 0.0, out=out)  # cumsum round-off must not produce negative energy
     return out

@@ -3,7 +3,8 @@
 Beams are spread uniformly across the horizontal field of view, beam 0 at +fov/2 (port,
 left of the image) to beam n−1 at −fov/2 (starboard); bearings are counter-clockwise from
 the sensor's x axis. Each beam casts ``rays_per_beam`` rays across the vertical aperture
-(elevation from −tilt − vfov/2 to −tilt + vfov/2). Echo formation as in
+(elevation from −tilt − vfov/2 to −tilt + vfov/2; 1.5× that for non-rect patterns),
+spread across the beam's horizontal cell. Echo formation as in
 :mod:`sim.sonar.echo` (footprint splatting, Lambert + specular, spreading, absorption).
 """
 
@@ -86,7 +87,11 @@ class ForwardLookingSonar:
         span = vfov if c.beam_pattern == "rect" else 1.5 * vfov
         eps = -tilt + ((np.arange(nr) + 0.5) / nr - 0.5) * span
         deps = span / nr
-        B, E = np.meshgrid(self.bearings, eps, indexing="ij")  # (beams, rays)
+        # rays of a beam: stratified in elevation, spread across the beam's horizontal cell by
+        # a golden-ratio sequence so small targets between beam centres are still hit
+        jitter = (np.mod(np.arange(nr) * 0.6180339887, 1.0) - 0.5) * dbeta
+        B = self.bearings[:, None] + jitter[None, :]
+        E = np.broadcast_to(eps[None, :], B.shape)
         ce, se, cb, sb = np.cos(E), np.sin(E), np.cos(B), np.sin(B)
         self._d_local = np.stack([ce * cb, ce * sb, se], -1).reshape(-1, 3)
         self._dd_local = (np.stack([-se * cb, -se * sb, ce], -1) * deps).reshape(-1, 3)
