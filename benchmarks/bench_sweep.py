@@ -1,0 +1,59 @@
+"""Sweep throughput: runs/s serial vs 2 local worker processes vs local Ray with 2 workers,
+measured side by side on the same plan (dense-loop SLAM runs, one loop each).
+
+    undersea bench sweep [--runs 8] [--json]
+
+Target (issue 7): >= 1.8x with 2 workers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="undersea bench sweep")
+    ap.add_argument("--runs", type=int, default=8)
+    ap.add_argument("--target", default="slam:dense-loop")
+    ap.add_argument("--no-ray", action="store_true")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+
+    from sim.sweep import SweepPlan, run_sweep
+
+    plan = SweepPlan(args.target, runs=args.runs, vary={"loops": [1]})
+    modes = [("serial", {"workers": 1}), ("local-2", {"workers": 2})]
+    if not args.no_ray:
+        try:
+            import ray  # noqa: F401
+
+            modes.append(("ray-local-2", {"workers": 2, "use_ray": True}))
+        except ImportError:
+            print("ray not installed: skipping the Ray mode (pip install 'undersea[cluster]')",
+                  file=sys.stderr)
+    figures = {"runs": args.runs, "target": args.target}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, kw in modes:
+            res = run_sweep(plan, Path(tmp) / name, progress=False, **kw)
+            if res.failed:
+                raise SystemExit(f"bench sweep: {name} had failures: {res.failed}")
+            figures[f"{name}_wall_s"] = res.wall_s
+            figures[f"{name}_runs_per_s"] = args.runs / res.wall_s
+    base = figures["serial_runs_per_s"]
+    for name, _ in modes[1:]:
+        figures[f"{name}_speedup"] = figures[f"{name}_runs_per_s"] / base
+    if args.json:
+        print(json.dumps(figures, indent=1))
+    else:
+        for k, v in figures.items():
+            print(f"{k:>24}: {v:.3f}" if isinstance(v, float) else f"{k:>24}: {v}")
+        print("target: speedup >= 1.8 with 2 workers")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

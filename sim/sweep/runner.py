@@ -1,0 +1,237 @@
+"""Execute a sweep plan serially, on local worker processes, or on a Ray cluster.
+
+Each finished run is written by the worker itself, atomically, to
+``OUT/runs/<run_id>.json`` the moment it finishes, so killing a worker (or the whole
+sweep) loses no finished run, and running the same sweep again resumes: runs with a
+result file are skipped. A run that raises is recorded in ``OUT/failed/<run_id>.json``
+with its seed, variant and traceback — never silently dropped — and is tried again on the
+next invocation. A run whose worker process dies is resubmitted on a fresh pool up to
+``max_retries`` times, then recorded as failed.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import sys
+import tempfile
+import time
+import traceback
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from sim.sweep.plan import RunSpec, SweepPlan
+
+
+@dataclass
+class SweepResult:
+    """Where the sweep's records are, and what happened to each run this invocation."""
+
+    out_dir: Path
+    finished: list[str] = field(default_factory=list)  # run ids that finished now
+    skipped: list[str] = field(default_factory=list)  # already finished before (resume)
+    failed: dict[str, str] = field(default_factory=dict)  # run id -> one-line error
+    wall_s: float = 0.0
+
+    @property
+    def records(self) -> list[dict]:
+        return load_records(self.out_dir)
+
+
+def _atomic_write_json(path: Path, obj: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    with os.fdopen(fd, "w") as f:
+        json.dump(obj, f, indent=1, sort_keys=True)
+    os.replace(tmp, path)
+
+
+def load_records(out_dir: Path) -> list[dict]:
+    """All finished run records of a sweep directory, sorted by run id."""
+    runs = Path(out_dir) / "runs"
+    return [json.loads(p.read_text()) for p in sorted(runs.glob("*.json"))]
+
+
+def execute_run(target: str, spec: RunSpec, out_dir: str) -> dict:
+    """Run one spec in this process and persist its record. Returns the record.
+
+    Exceptions from the task are caught and recorded as a failure (status "failed").
+    """
+    from sim.sweep.tasks import resolve_task
+
+    out = Path(out_dir)
+    record = {
+        "run_id": spec.run_id,
+        "variant_id": spec.variant_id,
+        "variant": dict(spec.variant),
+        "seed": spec.seed,
+        "target": target,
+        "pid": os.getpid(),
+    }
+    t0 = time.perf_counter()
+    try:
+        task = resolve_task(target)
+        metrics = task(spec.params(), spec.seed, out / "artifacts" / spec.run_id)
+    except Exception as exc:  # recorded, with traceback, for the user
+        record.update(
+            status="failed",
+            error=f"{type(exc).__name__}: {exc}",
+            traceback=traceback.format_exc(),
+            wall_s=time.perf_counter() - t0,
+        )
+        _atomic_write_json(out / "failed" / f"{spec.run_id}.json", record)
+        return record
+    record.update(status="ok", metrics=metrics, wall_s=time.perf_counter() - t0)
+    _atomic_write_json(out / "runs" / f"{spec.run_id}.json", record)
+    failed = out / "failed" / f"{spec.run_id}.json"
+    if failed.exists():
+        failed.unlink()
+    return record
+
+
+def _progress(total: int, enabled: bool):
+    from tqdm import tqdm
+
+    quiet = not enabled or os.environ.get("CI") or not sys.stderr.isatty()
+    return tqdm(total=total, unit="run", disable=bool(quiet), desc="sweep")
+
+
+def run_sweep(
+    plan: SweepPlan,
+    out_dir: str | Path,
+    workers: int = 1,
+    ray_address: str | None = None,
+    use_ray: bool = False,
+    max_retries: int = 1,
+    progress: bool = True,
+) -> SweepResult:
+    """Run every spec of ``plan`` not already finished in ``out_dir``.
+
+    workers     : 1 runs serially in this process; K > 1 uses K local processes (spawn),
+                  or K Ray workers with ``use_ray``/``ray_address``.
+    ray_address : address of a running Ray cluster ("auto", "ray://host:10001"); implies Ray.
+    """
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "plan.json").write_text(
+        json.dumps(
+            {"target": plan.target, "runs": plan.runs, "vary": plan.vary, "base_seed": plan.base_seed},
+            indent=1,
+        )
+    )
+    # fail fast on an unknown target, before any worker starts
+    from sim.sweep.tasks import resolve_task
+
+    resolve_task(plan.target)
+    result = SweepResult(out_dir=out)
+    todo = []
+    for spec in plan.specs():
+        if (out / "runs" / f"{spec.run_id}.json").exists():
+            result.skipped.append(spec.run_id)
+        else:
+            todo.append(spec)
+    t0 = time.perf_counter()
+    bar = _progress(len(todo), progress)
+
+    def collect(record: dict) -> None:
+        bar.update(1)
+        if record["status"] == "ok":
+            result.finished.append(record["run_id"])
+        else:
+            result.failed[record["run_id"]] = record["error"]
+
+    if use_ray or ray_address:
+        _run_ray(plan.target, todo, out, workers, ray_address, collect)
+    elif workers == 1:
+        for spec in todo:
+            collect(execute_run(plan.target, spec, str(out)))
+    else:
+        _run_local(plan.target, todo, out, workers, max_retries, collect)
+    bar.close()
+    result.wall_s = time.perf_counter() - t0
+    return result
+
+
+def _run_local(target, todo, out: Path, workers: int, max_retries: int, collect) -> None:
+    ctx = multiprocessing.get_context("spawn")  # no fork: MuJoCo/OpenMP threads are not fork-safe
+    attempts = {spec.run_id: 0 for spec in todo}
+    pending = list(todo)
+    while pending:
+        lost: list[RunSpec] = []
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+            futures = {pool.submit(execute_run, target, spec, str(out)): spec for spec in pending}
+            remaining = set(futures)
+            while remaining:
+                done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    spec = futures[fut]
+                    try:
+                        collect(fut.result())
+                    except BrokenProcessPool:
+                        # the worker died (killed, OOM); its finished siblings are on disk
+                        if (out / "runs" / f"{spec.run_id}.json").exists():
+                            collect(json.loads((out / "runs" / f"{spec.run_id}.json").read_text()))
+                        else:
+                            lost.append(spec)
+        pending = []
+        for spec in lost:
+            attempts[spec.run_id] += 1
+            if attempts[spec.run_id] > max_retries:
+                record = {
+                    "run_id": spec.run_id,
+                    "variant_id": spec.variant_id,
+                    "variant": dict(spec.variant),
+                    "seed": spec.seed,
+                    "target": target,
+                    "status": "failed",
+                    "error": f"worker process died {attempts[spec.run_id]} times",
+                }
+                _atomic_write_json(out / "failed" / f"{spec.run_id}.json", record)
+                collect(record)
+            else:
+                pending.append(spec)
+
+
+def _run_ray(target, todo, out: Path, workers: int, address: str | None, collect) -> None:
+    try:
+        import ray
+    except ImportError as exc:  # optional extra
+        raise RuntimeError(
+            "Ray is not installed: pip install 'undersea[cluster]' to sweep on Ray"
+        ) from exc
+    started_here = not ray.is_initialized()
+    if started_here:
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+    try:
+        remote = ray.remote(max_retries=2, num_cpus=1)(execute_run)
+        refs = [remote.remote(target, spec, str(out)) for spec in todo]
+        specs = dict(zip(refs, todo))
+        while refs:
+            done, refs = ray.wait(refs, num_returns=1)
+            for ref in done:
+                try:
+                    collect(ray.get(ref))
+                except Exception as exc:  # worker crash after retries
+                    spec = specs[ref]
+                    record = {
+                        "run_id": spec.run_id,
+                        "variant_id": spec.variant_id,
+                        "variant": dict(spec.variant),
+                        "seed": spec.seed,
+                        "target": target,
+                        "status": "failed",
+                        "error": f"{type(exc).__name__}: {exc}",
+                    }
+                    _atomic_write_json(out / "failed" / f"{spec.run_id}.json", record)
+                    collect(record)
+    finally:
+        if started_here:
+            ray.shutdown()
