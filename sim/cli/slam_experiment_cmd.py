@@ -14,7 +14,7 @@ import sys
 HELP = "run the reference's simulated SLAM experiments (dense-loop, line, segmentation-loop)"
 
 _EXPERIMENTS = ("dense-loop", "line", "segmentation-loop")
-_FILTERS = ("aekf", "fastslam2", "isam2")
+_FILTERS = ("aekf", "fastslam2", "isam2", "aekf-submap")
 
 
 def _param(text: str) -> tuple[str, object]:

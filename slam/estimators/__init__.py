@@ -13,7 +13,12 @@ from slam.estimators.base import SlamEstimator, UpdateResult
 __all__ = ["ESTIMATORS", "SlamEstimator", "UpdateResult", "make_estimator"]
 
 #: estimator name -> module under slam.estimators
-ESTIMATORS: dict[str, str] = {"aekf": "aekf", "fastslam2": "fastslam2", "isam2": "isam2"}
+ESTIMATORS: dict[str, str] = {
+    "aekf": "aekf",
+    "fastslam2": "fastslam2",
+    "isam2": "isam2",
+    "aekf-submap": "aekf_submap",  # beyond the contract: sub-mapping AEKF for large maps
+}
 
 
 def _estimator_class(name: str, module):
@@ -32,7 +37,8 @@ def _estimator_class(name: str, module):
 
 
 def make_estimator(name: str, **params) -> SlamEstimator:
-    """Build the estimator ``name`` ("aekf", "fastslam2" or "isam2") with its parameters.
+    """Build the estimator ``name`` ("aekf", "fastslam2", "isam2"; also "aekf-submap")
+    with its parameters.
 
     Raises ``ValueError`` for an unknown name and ``ImportError`` with the install hint
     when iSAM2's optional dependency gtsam is missing.

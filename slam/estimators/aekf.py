@@ -464,6 +464,7 @@ def associate(
     exclusive: bool = True,
     x_lin=None,
     return_scores: bool = False,
+    unambiguous_gate: float | None = None,
 ):
     """Gated data association (Bailey's ``data_associate``, vectorized).
 
@@ -473,6 +474,12 @@ def associate(
     is a new landmark; otherwise (between the gates: ambiguous) it is rejected. With
     ``exclusive`` (beyond Bailey, who lets two observations of a scan update one landmark),
     a landmark claimed by several observations keeps only the best; the others are rejected.
+
+    ``unambiguous_gate`` (beyond Bailey; None = off): an observation with no landmark inside
+    the reject gate but exactly one landmark with NIS below this gate (and none other below
+    it) is associated with that one instead of being discarded. Discarding every
+    innovation above the reject gate truncates the innovation distribution, which makes a
+    filter overconfident (13.5 % of correct observations at gate 4 with 2 dof).
 
     Returns ``(idx (k,) int landmark index or -1, new (k,) bool, nis (k,) float)``, and
     with ``return_scores`` also the full ``nis (k, n)`` matrix.
@@ -494,6 +501,20 @@ def associate(
     idx[ok] = j[ok]
     best_nis[ok] = nis[rows[ok], j[ok]]
     new = ~ok & (nis.min(axis=1) > augment_gate)
+    if unambiguous_gate is not None:
+        cand = nis < unambiguous_gate
+        single = ~ok & (cand.sum(axis=1) == 1)
+        if np.any(single):
+            jj = np.argmax(cand[single], axis=1)
+            rs = rows[single]
+            idx[rs] = jj
+            best_nis[rs] = nis[rs, jj]
+            ok = ok.copy()
+            ok[rs] = True
+            j = j.copy()
+            j[rs] = jj
+            score[rs, jj] = nis[rs, jj] if method == "nn" else nd[rs, jj]
+            new[rs] = False
     if exclusive and np.count_nonzero(ok) > 1:
         sel = rows[ok]
         order = np.lexsort((score[sel, j[sel]], j[sel]))
@@ -520,6 +541,7 @@ class AEKFConfig:
     batch : batch update of all observations of a scan (Bailey's default) or sequential.
     joseph : Joseph-form covariance update instead of ``P - W1 W1ᵀ``.
     jacobians : "standard" EKF, or "fej" first-estimates Jacobians (consistency).
+    unambiguous_gate : see :func:`associate`; None (Bailey's rule) by default.
     fej_gating : with FEJ, gate the association with the FEJ Jacobians too; default False
         gates with the current-estimate Jacobians (first estimates can be far off after a
         loop closure, and a wrong S in the gate creates duplicate landmarks).
@@ -541,6 +563,7 @@ class AEKFConfig:
     max_misses: int | None = None
     reduction_margin_m: float = 3.0
     fej_gating: bool = False
+    unambiguous_gate: float | None = None
 
     def __post_init__(self) -> None:
         if not (self.reject_gate > 0 and math.isfinite(self.reject_gate)):
@@ -672,6 +695,7 @@ class AEKFSlam:
                 exclusive=cfg.exclusive,
                 x_lin=x_lin if cfg.fej_gating else None,
                 return_scores=True,
+                unambiguous_gate=cfg.unambiguous_gate,
             )
             compatible = (scores < cfg.augment_gate).any(axis=0)
         known = idx >= 0

@@ -25,6 +25,15 @@ from slam.estimators.aekf import (
 from slam.types import Odometry, RangeBearing
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _single_blas_thread():
+    """Small matrices: oversubscribed BLAS threads on a shared machine only slow down."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
 def _random_state(rng, n=4, spread=20.0):
     x = np.concatenate([[1.0, -2.0, 0.3], rng.uniform(-spread, spread, 2 * n)])
     A = rng.standard_normal((x.size, x.size)) * 0.3
