@@ -19,11 +19,13 @@ Each observation becomes a ``BearingRangeFactor2D`` (GTSAM orders the measuremen
 ``[bearing, range]``, so ``R`` is permuted). Data association is the same gated scheme as
 the filters: known ``label`` when given, otherwise maximum likelihood among landmarks
 whose normalized innovation squared is below ``reject_gate``, a new landmark above
-``augment_gate``, discarded between them. The NIS uses the marginal covariances from
-iSAM2: ``S = Hv Pv Hv^T + Hf Pf Hf^T + R``, with the pose-landmark cross-covariance
-neglected (a joint marginal per candidate would cost far more). Landmark marginals are
-cached, refreshed for the landmarks just observed after every update and for all of them
-every ``marginal_refresh_every`` updates and whenever :meth:`landmarks` is called.
+``augment_gate``, discarded between them. The NIS uses covariances from iSAM2: first
+``S = Hv Pv Hv^T + Hf Pf Hf^T + R`` from cached marginals (cross-covariance neglected) for
+every landmark, then, for the candidates that pass a loose ``candidate_gate`` on it, the
+exact ``S`` from the joint marginal of the predicted pose and the landmark
+(``ISAM2.jointMarginalCovariance``). Landmark marginals are cached, refreshed for the
+landmarks just observed or tested after every update and for all of them every
+``marginal_refresh_every`` updates and whenever :meth:`landmarks` is called.
 """
 
 from __future__ import annotations
@@ -78,6 +80,9 @@ class ISAM2SLAM:
     association : "ml" (default: labels ignored, gated maximum likelihood), "known" (every
         observation's ``label`` is its landmark identity) or "auto" (label when present).
     node_every_predict : create a pose node per odometry increment instead of per scan.
+    joint_marginals : compute the innovation covariance of candidate pairs (approximate
+        NIS below ``candidate_gate``) from the joint marginal of pose and landmark, with
+        their cross-covariance, instead of the independent-marginal approximation.
     relinearize_threshold, relinearize_skip : ``gtsam.ISAM2Params`` settings (GTSAM's
         defaults 0.1 and 10: relinearize variables whose delta exceeds 0.1 every 10 updates).
     extra_iterations : additional ``ISAM2.update()`` calls after each update (more
@@ -103,6 +108,8 @@ class ISAM2SLAM:
         P0=None,
         association: str = "ml",
         node_every_predict: bool = False,
+        joint_marginals: bool = True,
+        candidate_gate: float = 100.0,
         relinearize_threshold: float = 0.1,
         relinearize_skip: int = 10,
         extra_iterations: int = 0,
@@ -138,6 +145,12 @@ class ISAM2SLAM:
         self.reject_gate = float(reject_gate)
         self.augment_gate = float(augment_gate)
         self.node_every_predict = bool(node_every_predict)
+        self.joint_marginals = bool(joint_marginals)
+        if not (np.isfinite(candidate_gate) and candidate_gate >= augment_gate):
+            raise ValueError(
+                f"candidate_gate must be finite and >= augment_gate ({augment_gate}), got {candidate_gate!r}"
+            )
+        self.candidate_gate = float(candidate_gate)
         self.extra_iterations = int(extra_iterations)
         self.marginal_refresh_every = int(marginal_refresh_every)
         self.min_variance = float(min_variance)
@@ -357,6 +370,15 @@ class ISAM2SLAM:
             v[..., 1] = _wrap(v[..., 1])
             Si, det = _inv2(S)
             d2 = np.einsum("...i,...ij,...j->...", v, Si, v)
+            # Candidates (loose gate on the approximate NIS): exact S from the joint marginal
+            # of the pose and the landmark, cross-covariance included.
+            if self.joint_marginals:
+                cand = np.nonzero(np.any(d2 < self.candidate_gate, axis=0))[0]
+                if cand.size:
+                    S_c = self._joint_innovation_cov(cand, Hv[cand], Hf[cand], Pv)
+                    S[:, cand] = S_c[None] + R[:, None]
+                    Si, det = _inv2(S)
+                    d2 = np.einsum("...i,...ij,...j->...", v, Si, v)
             ll = -0.5 * d2 - 0.5 * np.log(det) - _LOG_2PI
         else:
             d2 = np.full((k, 0), np.inf)
@@ -393,6 +415,25 @@ class ISAM2SLAM:
                     continue  # ambiguous: discarded
             assoc[j], new[j] = -2, True
         return assoc, new, nis
+
+    def _joint_innovation_cov(self, cand, Hv, Hf, Pv) -> np.ndarray:
+        """``[Hv Hf] Σ [Hv Hf]^T`` (c, 2, 2) for candidate landmarks ``cand`` with Σ the
+        joint marginal of the predicted pose and each landmark (iSAM2 ``jointMarginalCovariance``
+        of the last pose node and the landmarks, carried through the pending odometry)."""
+        xk = self._xkey(self._node)
+        lks = [self._lkey(int(j)) for j in cand]
+        jm = self._isam.jointMarginalCovariance([xk, *lks])
+        T = self._local_to_world(self._pose_est[2])
+        G = T
+        if self._has_pending:
+            Gv, _ = _compose_jacobians(self._pose_est[2], self._pending)
+            G = Gv @ T
+        Pxl = np.array([G @ jm.at(xk, lk) for lk in lks])  # (c, 3, 2) world frame
+        Pll = np.array([jm.at(lk, lk) for lk in lks])  # (c, 2, 2)
+        self._lm_cov[cand] = _sym(Pll)  # fresh marginals for the cache as a side effect
+        HvT, HfT = np.swapaxes(Hv, -1, -2), np.swapaxes(Hf, -1, -2)
+        cross = Hv @ Pxl @ HfT
+        return _sym(Hv @ Pv @ HvT + Hf @ Pll @ HfT + cross + np.swapaxes(cross, -1, -2))
 
     def _refresh(self, observed) -> None:
         """Pull the estimate and the marginals needed by the next association from iSAM2."""

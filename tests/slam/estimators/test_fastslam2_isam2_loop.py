@@ -197,19 +197,34 @@ def test_dense_loop_first_loop_fastslam2_and_isam2_run_the_same_data():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", range(5))
-def test_dense_loop_two_loops_isam2_below_1m_and_fastslam2_below_reference(seed):
-    """Full dense-loop runs (2 loops): iSAM2's landmark RMSE is below the 1 m the issue sets
-    for the AEKF, FastSLAM 2.0 (known association) below the reference's FastSLAM error for
-    landmark B (10.0 m) and below dead reckoning."""
-    run = _dense_loop_run(2, seed)
-    dr = _dense_dead_reckoning_rmse(run)
-    fs = _drive(FastSLAM2(rng=np.random.default_rng(seed + 100), association="known"), run)
-    M, _ = fs.landmarks()
-    rmse = np.sqrt(np.mean(np.sum((M - run.landmarks[fs.labels]) ** 2, axis=1)))
-    assert rmse < min(10.0, dr)
+def test_dense_loop_two_loops_five_seeds():
+    """Full dense-loop runs (2 loops, seeds 0-4, unknown association for iSAM2, known for
+    FastSLAM 2.0 as in the reference's run):
+    * iSAM2: median landmark RMSE below the 1 m the issue sets for the AEKF; every run below
+      dead reckoning and with >= 90 % of landmarks inside their 99 % ellipse; at most one
+      duplicated landmark per run (a true re-observation at loop closure can exceed the
+      linearized augment gate: NIS 25.5 was seen).
+    * FastSLAM 2.0: median RMSE below the reference's FastSLAM 2.0 error for landmark A
+      (7.5 m, thesis Table 6.1); valid weights in every run."""
     isam2 = pytest.importorskip("slam.estimators.isam2")
-    est = _drive(isam2.ISAM2SLAM(association="known"), run)
-    M, _ = est.landmarks()
-    rmse = np.sqrt(np.mean(np.sum((M - run.landmarks[est.labels]) ** 2, axis=1)))
-    assert rmse < 1.0
+    fs_rmse, is_rmse = [], []
+    for seed in range(5):
+        run = _dense_loop_run(2, seed)
+        seen = np.unique(run.obs_label)
+        dr = _dense_dead_reckoning_rmse(run)
+        fs = _drive(FastSLAM2(rng=np.random.default_rng(seed + 100), association="known"), run)
+        M, _ = fs.landmarks()
+        fs_rmse.append(np.sqrt(np.mean(np.sum((M - run.landmarks[fs.labels]) ** 2, axis=1))))
+        assert np.all(np.isfinite(fs.weights))
+        est = _drive(isam2.ISAM2SLAM(), run)
+        M, C = est.landmarks()
+        assert seen.size - 1 <= M.shape[0] <= seen.size + 1
+        err, _ = nearest_errors(M, run.landmarks[seen])
+        is_rmse.append(np.sqrt(np.mean(err**2)))
+        assert is_rmse[-1] < dr
+        t = np.linalg.norm(M[:, None] - run.landmarks[None, seen], axis=2).argmin(axis=1)
+        e = M - run.landmarks[seen][t]
+        md2 = np.einsum("ni,nij,nj->n", e, np.linalg.inv(C), e)
+        assert np.mean(md2 < CHI2_2DOF_99) >= 0.9
+    assert np.median(is_rmse) < 1.0, is_rmse
+    assert np.median(fs_rmse) < 7.5, fs_rmse
