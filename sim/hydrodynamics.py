@@ -214,10 +214,13 @@ class HydroBatch:
         omega_body: np.ndarray,
         current_world: np.ndarray | None,
         tau: np.ndarray,
+        thrusters=None,
     ) -> np.ndarray:
         """xfrc_applied rows (N, 6) for states rot (N,3,3) body->world, pos (N,3) CG world m,
         vel_world (N,3) m/s, omega_body (N,3) rad/s, current_world (N,3) m/s or None, and
-        tau (N,6) body-frame actuator + external wrench. Stores ν̇* in ``last_accel``.
+        tau (N,6) body-frame external wrench. ``thrusters`` (a ``sim.thrusters.ThrusterBank``
+        or None) is advanced one step with this step's relative velocity ν_r and its wrench
+        added to tau. Stores ν̇* in ``last_accel``.
 
         Written for few numpy calls (each costs ~1 µs whatever N is): the cross products
         of a step go through one batched evaluation on buffers whose last axis repeats
@@ -234,6 +237,8 @@ class HydroBatch:
             vc = vv[:, 1, :]
             vr = v - vc
         nur = np.concatenate([vr, w], axis=1)
+        if thrusters is not None:
+            tau = tau + thrusters.step(nur)
         damp = (self.dl + self.dq * np.abs(nur)) * nur
         # buoyancy along +z_world scaled by the submerged fraction of the height
         sub = np.minimum(np.maximum(self.sub_offset - pos[:, 2] * self.inv_h, 0.0), 1.0)

@@ -158,18 +158,20 @@ class World:
     def _apply_forces(self) -> None:
         d = self.data
         bid = self._bid
-        rot = d.xmat[bid].reshape(-1, 3, 3)
-        pos = d.xpos[bid]
         qv = d.qvel[self._dofs]
-        vw = qv[:, :3]
-        cur = None if self.current.is_zero else self.current.velocity(pos, d.time)
-        nu_r = None
-        bank = self.thrusters
-        if bank.any_fin:
-            rel = vw if cur is None else vw - cur
-            nu_r = np.concatenate([(rel[:, None, :] @ rot)[:, 0, :], qv[:, 3:]], axis=1)
-        tau = bank.step(nu_r) + self._external
-        d.xfrc_applied[bid] = self.hydro.body_wrench(rot, pos, vw, qv[:, 3:], cur, tau)
+        if self.current.is_zero:
+            cur = None
+        else:
+            cur = self.current.velocity(d.xpos[bid], d.time)
+        d.xfrc_applied[bid] = self.hydro.body_wrench(
+            d.xmat[bid].reshape(-1, 3, 3),
+            d.xpos[bid],
+            qv[:, :3],
+            qv[:, 3:],
+            cur,
+            self._external,
+            self.thrusters,
+        )
 
     def step(self, n: int = 1) -> None:
         """Advance n physics steps (hydrodynamics + thrusters + mj_step each)."""
