@@ -2,8 +2,8 @@
 
 * ``dense_loop_map()`` — Bailey's ``example_webmap`` (the thesis's dense loop map).
 * ``line_map(rng)`` — 1000 m × 800 m (x 0..1000, y -400..400), 27 landmarks, 4 waypoints
-  along y = 0; landmarks A–D at the thesis's positions, the other 23 generated near the
-  line (the thesis does not list them).
+  along y = 0; landmarks A–D at the thesis's positions, the other 23 generated evenly
+  along the line (the thesis does not list them).
 * ``segmentation_loop_map(rng)`` — the 17 dense-loop waypoints and 54 landmarks: the 8
   ship, branch and body centroids of thesis Table 6.3 plus 46 "background centroids"
   generated near the path (the thesis does not list them).
@@ -76,12 +76,16 @@ def _near_path(
 
 
 def line_map(rng: np.random.Generator | None = None) -> ReferenceMap:
-    """The reference's line map: 4 waypoints along y = 0 up to x = 1000 m, 27 landmarks
-    (A–D of the thesis + 23 generated within 4–22 m of the line, x in 0..880 m)."""
+    """The reference's line map: 4 waypoints along y = 0 up to x = 1000 m, 27 landmarks:
+    A–D of the thesis and 23 generated ones evenly along x in 15..860 m (± 5 m jitter),
+    alternating sides of the line at |y| in 5..20 m (the thesis shows a partial view only;
+    even spacing keeps a landmark in view most of the way, as its figure suggests)."""
     rng = np.random.default_rng(20180601) if rng is None else rng
     wp = np.array([[250.0, 0.0], [500.0, 0.0], [750.0, 0.0], [1000.0, 0.0]])
-    others = _near_path(np.array([[10.0, 0.0], [870.0, 0.0]]), 23, rng, min_sep=8.0)
-    lm = np.concatenate([others[np.argsort(others[:, 0])], LINE_LANDMARKS_ABCD])
+    xs = np.linspace(15.0, 860.0, 23) + rng.uniform(-5.0, 5.0, 23)
+    side = np.where(np.arange(23) % 2 == 0, 1.0, -1.0)
+    others = np.stack([xs, side * rng.uniform(5.0, 20.0, 23)], axis=1)
+    lm = np.concatenate([others, LINE_LANDMARKS_ABCD])
     return ReferenceMap("line", lm, wp)
 
 
