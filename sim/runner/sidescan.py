@@ -9,7 +9,9 @@ ping a) - and only regions whose centroid falls in owned rows become detections.
 gives every region context on both sides and never reports one object twice from two
 windows. Several regions of one object (a wreck broken into highlights) within one
 window are merged when their ground positions (relative to the vehicle track) lie
-closer than ``merge_radius``.
+closer than ``merge_radius`` (single linkage on the gap between their footprints in
+metres: along-track x ground range). Regions in the nadir band (ground range below
+max(min_ground_range, altitude / 2): the first bottom return) are ignored.
 
 Each detection is tied to the ping k nearest its centroid (time t_k): the observation
 comes from the front end's side-scan observation model
@@ -103,6 +105,8 @@ class SidescanProcessor:
         class_of: Callable[[int], int] | None = None,
         along_track_beamwidth_deg: float = 0.0,
         altitude_sigma: float = 0.1,
+        prepare: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
+        min_ground_range: float = 2.0,
     ) -> None:
         if not 1 <= hop <= window:
             raise ValueError(f"hop must be in [1, window={window}], got {hop}")
@@ -116,6 +120,8 @@ class SidescanProcessor:
         self.along_track_beamwidth_deg = float(along_track_beamwidth_deg)
         self.altitude_sigma = float(altitude_sigma)
         self.horizon = -np.inf  # pings at or before this time are final
+        self.prepare = prepare
+        self.min_ground_range = float(min_ground_range)
         self.pings: list[PingRecord] = []
         self._next_start = 0  # start ping of the next window
         self._owned_until = 0  # pings < this are owned by processed windows
@@ -140,6 +146,8 @@ class SidescanProcessor:
         pings = self.pings[a : a + W]
         img = np.stack([p.intensity for p in pings]).astype(np.float32)
         lab = np.stack([p.labels for p in pings]).astype(np.int32)
+        if self.prepare is not None:
+            img = self.prepare(img, np.array([p.altitude for p in pings]), pings[0].slant_range)
         own_lo = self._owned_until
         own_hi = len(self.pings) if final else a + (W + H) // 2
         seg_labels, regions = self.segment(img)
@@ -186,21 +194,29 @@ class SidescanProcessor:
             p = self.pings[k]
             rs = float(p.slant_range[sample])
             g = float(np.sqrt(max(rs * rs - p.altitude**2, 0.0)))
+            if g < max(self.min_ground_range, 0.5 * p.altitude):  # nadir band: first return
+                continue
             r0, c0, r1, c1 = reg.bbox
-            cand.append([a + r, c, port, g, reg.area_px, (a + r0, c0, a + r1, c1), oid, frac])
-        # merge regions of one object: same side, close in along-track (m) and ground range
-        cand.sort(key=lambda x: (x[2], x[0], x[3]))
-        groups: list[list] = []
-        for cd in cand:
-            for grp in groups:
-                m = grp[0]
-                if m[2] == cd[2]:
-                    d_al = abs(cd[0] - m[0]) * max(self.pings[round(cd[0])].speed, 0.1) / rate
-                    if np.hypot(d_al, m[3] - cd[3]) < self.merge_radius:
-                        grp.append(cd)
-                        break
-            else:
-                groups.append([cd])
+            s0 = (S - c1) if port else (c0 - S)  # nearest sample of the box from nadir
+            s1 = (S - 1 - c0) if port else (c1 - 1 - S)
+            sl = p.slant_range[np.clip([s0, s1], 0, S - 1)]
+            gi = np.sqrt(np.clip(sl**2 - p.altitude**2, 0.0, None))
+            cand.append(
+                [
+                    a + r,
+                    c,
+                    port,
+                    g,
+                    reg.area_px,
+                    (a + r0, c0, a + r1, c1),
+                    oid,
+                    frac,
+                    (gi[0], gi[1]),
+                ]
+            )
+        # merge regions of one object (single linkage): same side, gap between their
+        # footprints (along-track x ground range, metres) below merge_radius
+        groups = self._merge(cand, rate)
         out = []
         for grp in groups:
             w = np.array([g_[4] for g_ in grp], float)
@@ -250,9 +266,70 @@ class SidescanProcessor:
         out.sort(key=lambda d: (d.t, d.side, d.ground_range))
         return out
 
+    def _merge(self, cand: list, rate: float) -> list[list]:
+        n = len(cand)
+        parent = list(range(n))
+
+        def find(i):
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        for i in range(n):
+            for j in range(i + 1, n):
+                a_, b_ = cand[i], cand[j]
+                if a_[2] != b_[2]:
+                    continue
+                spacing = max(self.pings[round(a_[0])].speed, 0.1) / rate
+                gap_al = max(0.0, max(a_[5][0], b_[5][0]) - min(a_[5][2], b_[5][2])) * spacing
+                gap_g = max(0.0, max(a_[8][0], b_[8][0]) - min(a_[8][1], b_[8][1]))
+                if np.hypot(gap_al, gap_g) < self.merge_radius:
+                    parent[find(i)] = find(j)
+        groups: dict[int, list] = {}
+        for i in range(n):
+            groups.setdefault(find(i), []).append(cand[i])
+        return [groups[k] for k in sorted(groups)]
+
     def _ping_rate(self) -> float:
         n = len(self.pings)
         if n < 2:
             return 10.0
         dt = (self.pings[-1].t - self.pings[0].t) / (n - 1)
         return 1.0 / dt if dt > 0 else 10.0
+
+
+def make_sss_prepare(log_compressed: bool, dynamic_range_db: float, looks: int = 3):
+    """The front end's input conditioning for a side-scan window, in order:
+
+    1. back to linear intensity if the sonar log-compressed its output for display
+       (x in [0, 1] spans ``dynamic_range_db``; the offset cancels in step 2);
+    2. MIRA normalization (slam.frontend.normalization.mira_normalize, thesis Ch. 4.1:
+       per side, mixed-exponential fit of the range profile, 9 pings averaged around the
+       window's middle ping) -> ~1 on average seabed;
+    3. the water column (slant range < altitude of that ping) set to the seabed level 1,
+       so the threshold separates highlights from seabed, not seabed from water;
+    4. ``looks`` x ``looks`` incoherent averaging (cv2.blur) against single-look speckle;
+    5. dB (10 log10, clipped to [-10, 20] dB) for the segmentation.
+    """
+    import cv2
+
+    from slam.frontend.normalization import mira_normalize
+
+    def prepare(img: np.ndarray, altitudes: np.ndarray, slant: np.ndarray) -> np.ndarray:
+        lin = (
+            np.power(10.0, img * (dynamic_range_db / 10.0))
+            if log_compressed
+            else img.astype(np.float64)
+        )
+        m = mira_normalize(lin.astype(np.float32), average=9).normalized
+        S = m.shape[1] // 2
+        wc = slant[None, :] < altitudes[:, None]  # (P, S) near -> far
+        full = np.concatenate([wc[:, ::-1], wc], axis=1)
+        m = np.where(full, 1.0, m).astype(np.float32)
+        if looks > 1:
+            m = cv2.blur(m, (looks, looks))
+        assert m.shape[1] == 2 * S
+        return (10.0 * np.log10(np.clip(m, 0.1, 100.0))).astype(np.float32)
+
+    return prepare

@@ -25,7 +25,7 @@ VEHICLE_KINDS = ("alister9", "ixn", "naiad", "saga", "rexrov")
 SONAR_PRESETS = ("deepeye340d", "deepeye680d", "klein3500", "blueview_p900_90", "msis")
 SIDESCAN_PRESETS = ("deepeye340d", "deepeye680d", "klein3500")
 SEABED_KINDS = ("flat", "ripples", "slope", "rocks", "grid")
-OBJECT_CLASSES = ("shipwreck", "rock", "branch", "mannequin", "pipe", "tyre", "sensor_node")
+OBJECT_CLASSES = ("shipwreck", "rock", "tree_branch", "mannequin", "pipe", "tyre", "sensor_node")
 MISSION_TYPES = ("lawnmower", "loop", "line", "waypoints", "hold")
 FRONTEND_METHODS = ("improved-otsu", "otsu", "local", "isodata", "kapur", "none")
 FRONTEND_PRESETS = ("auto", "high-res-sss", "low-res-sss", "fls", "sdvd")
@@ -45,12 +45,15 @@ def _fail(path: str, value: Any, allowed: str) -> ScenarioError:
 # ------------------------------------------------------------------ dataclasses ----------
 @dataclass(frozen=True)
 class ObjectSpec:
-    """One seabed object. position (3,) m world frame; z is height above the seabed there."""
+    """One seabed object of class ``cls``: base centre at position (x, y) world m on the
+    seabed, heading yaw_deg (ccw from east), scale x the class's default size, burial =
+    fraction of its height sunk into the seabed."""
 
     cls: str
-    position: tuple[float, float, float]
+    position: tuple[float, float]
     yaw_deg: float = 0.0
     scale: float = 1.0
+    burial: float = 0.0
     name: str = ""
 
 
@@ -191,6 +194,7 @@ class Scenario:
     world: WorldSpecConfig
     vehicles: tuple[VehicleSpec, ...]
     outputs: OutputSpec
+    physics_dt: float = 0.01
 
     def with_overrides(self, seed: int | None = None, duration_s: float | None = None) -> Scenario:
         s = self
@@ -285,25 +289,19 @@ def _scalar_overrides(v, path) -> dict[str, Any]:
 # ------------------------------------------------------------------ sections -------------
 def _parse_object(d, path) -> ObjectSpec:
     d = _table(d, path)
-    _check_keys(d, path, ("class", "position", "yaw_deg", "scale", "name"))
+    _check_keys(d, path, ("class", "position", "yaw_deg", "scale", "burial", "name"))
     if "class" not in d:
         raise _fail(f"{path}.class", None, ", ".join(OBJECT_CLASSES))
     cls = _str(d["class"], f"{path}.class", OBJECT_CLASSES)
     if "position" not in d:
-        raise _fail(
-            f"{path}.position", None, "a list of 2 or 3 numbers [x, y(, z above seabed)] in m"
-        )
-    p = d["position"]
-    if not isinstance(p, list | tuple) or len(p) not in (2, 3):
-        raise _fail(f"{path}.position", p, "a list of 2 or 3 numbers [x, y(, z above seabed)] in m")
-    pos = tuple(_num(x, f"{path}.position[{i}]") for i, x in enumerate(p))
-    if len(pos) == 2:
-        pos = (*pos, 0.0)
+        raise _fail(f"{path}.position", None, "a list of 2 numbers [x, y] in m")
+    pos = _vec(d["position"], f"{path}.position", 2)
     return ObjectSpec(
         cls=cls,
         position=pos,  # type: ignore[arg-type]
         yaw_deg=_num(d.get("yaw_deg", 0.0), f"{path}.yaw_deg", -360, 360),
         scale=_num(d.get("scale", 1.0), f"{path}.scale", 0.0, 100.0, lo_open=True),
+        burial=_num(d.get("burial", 0.0), f"{path}.burial", 0.0, 0.9),
         name=_str(d.get("name", ""), f"{path}.name"),
     )
 
@@ -549,6 +547,7 @@ TOP_KEYS = (
     "seed",
     "duration_s",
     "control_dt",
+    "physics_dt",
     "world",
     "vehicles",
     "frontend",
@@ -589,15 +588,21 @@ def parse_scenario(data: Mapping[str, Any]) -> Scenario:
         figures=_bool(o.get("figures", True), "outputs.figures"),
         log_sonar_every=_int(o.get("log_sonar_every", 1), "outputs.log_sonar_every", 1, 10000),
     )
+    control_dt = _num(d.get("control_dt", 0.05), "control_dt", 0.001, 1.0)
+    physics_dt = _num(d.get("physics_dt", 0.01), "physics_dt", 0.0001, 0.05)
+    ratio = control_dt / physics_dt
+    if abs(ratio - round(ratio)) > 1e-6:
+        raise _fail("control_dt", control_dt, f"a whole multiple of physics_dt = {physics_dt:g} s")
     return Scenario(
         name=_str(d.get("name", "unnamed"), "name"),
         description=_str(d.get("description", ""), "description"),
         seed=_int(d.get("seed", 0), "seed", lo=0),
         duration_s=_num(d.get("duration_s", 60.0), "duration_s", 0.0, 1e6, lo_open=True),
-        control_dt=_num(d.get("control_dt", 0.05), "control_dt", 0.001, 1.0),
+        control_dt=control_dt,
         world=world,
         vehicles=vehicles,
         outputs=outputs,
+        physics_dt=physics_dt,
     )
 
 

@@ -46,7 +46,7 @@ def test_shipwreck_default_contents():
     v = s.vehicles[0]
     assert v.kind == "alister9" and v.sonars[0].preset == "deepeye680d"
     assert v.mission.type == "lawnmower"
-    assert {"shipwreck", "rock", "branch", "mannequin"} <= {o.cls for o in s.world.objects}
+    assert {"shipwreck", "rock", "tree_branch", "mannequin"} <= {o.cls for o in s.world.objects}
 
 
 def test_swarms_has_all_four_vehicles_each_with_own_sonar_and_slam():
