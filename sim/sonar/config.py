@@ -110,7 +110,7 @@ class AcousticConfig:
     display_floor_db: float | None = None
     dynamic_range_db: float = 50.0
     absorption_model: AbsorptionModel = "francois_garrison"
-    specular_db: float | None = -13.0
+    specular_db: float | None = -8.0
     specular_width_deg: float = 10.0
 
     def __post_init__(self) -> None:
@@ -177,7 +177,7 @@ class SSSConfig:
     vertical_beamwidth_deg: float = 50.0
     depression_deg: float = 20.0
     beam_pattern: BeamPattern = "gaussian"
-    sidelobe_db: float = -10.0
+    sidelobe_db: float = -6.0
     ping_rate_hz: float = 10.0
     rays_along_track: int = 3
     ray_oversampling: float = 1.0

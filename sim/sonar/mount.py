@@ -45,6 +45,18 @@ def check_mount(model: mujoco.MjModel, data: mujoco.MjData, site_id: int, tolera
     return root
 
 
+def sensor_depth(water: WaterLike, z: float) -> float:
+    """Depth (m, ≥ 0) of world height z: ``water.depth − z`` (WaterLike), or
+    ``water.surface_z − z`` for a water object that states the surface height instead."""
+    if hasattr(water, "depth"):
+        return max(0.0, float(water.depth) - z)
+    if hasattr(water, "surface_z"):
+        return max(0.0, float(water.surface_z) - z)
+    raise ValueError(
+        "water has neither 'depth' (datum depth) nor 'surface_z'; allowed: a WaterLike object"
+    )
+
+
 class SonarMount:
     """Common set-up of a sonar on one or more sites: validation, root body, ray backend,
     absorption coefficient α (dB/m) at the sonar's initial depth (``water.depth − z``)."""
@@ -84,7 +96,7 @@ class SonarMount:
             )
         self.water = water
         self.sound_speed = float(water.sound_speed)
-        depth = max(0.0, float(water.depth) - float(data.site_xpos[self.site_ids[0], 2]))
+        depth = sensor_depth(water, float(data.site_xpos[self.site_ids[0], 2]))
         self.alpha_db_m = absorption_db_per_m(
             config.frequency_hz, water, depth, config.acoustic.absorption_model
         )

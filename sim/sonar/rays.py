@@ -217,13 +217,19 @@ class EmbreeRays:
                 (np.asarray(V, float) - self.center).astype(np.float32),
                 np.ascontiguousarray(F, np.int32),
             )
-        dyn_geoms = [
-            g
-            for g in range(model.ngeom)
-            if model.body_weldid[model.geom_bodyid[g]] != 0
-            and model.body_rootid[model.geom_bodyid[g]] != bodyexclude
-        ]
-        self.mujoco = MujocoRays(model, bodyexclude, flg_static=False) if dyn_geoms else None
+        self.dyn_geoms = np.array(
+            [
+                g
+                for g in range(model.ngeom)
+                if model.body_weldid[model.geom_bodyid[g]] != 0
+                and model.body_rootid[model.geom_bodyid[g]] != bodyexclude
+                and _geom_visible(model, g)
+            ],
+            dtype=np.int64,
+        )
+        self.mujoco = (
+            MujocoRays(model, bodyexclude, flg_static=False) if self.dyn_geoms.size else None
+        )
 
     def cast(
         self, data: mujoco.MjData, origin: np.ndarray, dirs: np.ndarray, cutoff: float
@@ -242,17 +248,28 @@ class EmbreeRays:
             inv = np.where(
                 hit, 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->i", ng, ng)), 1e-30), 0.0
             )
-            normal = ng * inv[:, None]
+            normal = (ng * inv[:, None]).astype(np.float64)
         else:
             dist = np.full(n, np.inf)
             geom = np.full(n, -1, np.int32)
             normal = np.zeros((n, 3))
         if self.mujoco is not None:
-            h = self.mujoco.cast(data, origin, dirs, cutoff)
-            closer = h.dist < dist
-            dist = np.where(closer, h.dist, dist)
-            geom = np.where(closer, h.geom, geom)
-            normal = np.where(closer[:, None], h.normal, normal)
+            # only rays passing within a moving geom's bounding sphere go to MuJoCo
+            c = data.geom_xpos[self.dyn_geoms] - origin  # (G, 3)
+            rb = self.model.geom_rbound[self.dyn_geoms]
+            t = dirs @ c.T  # (N, G) distance along each ray to the closest approach
+            d2 = np.sum(c * c, axis=1)[None, :] - t * t
+            near = (
+                (d2 <= (rb * rb)[None, :]) & (t >= -rb[None, :]) & (t - rb[None, :] <= cutoff)
+            ).any(axis=1)
+            idx = np.flatnonzero(near)
+            if idx.size:
+                h = self.mujoco.cast(data, origin, dirs[idx], cutoff)
+                closer = h.dist < dist[idx]
+                k = idx[closer]
+                dist[k] = h.dist[closer]
+                geom[k] = h.geom[closer]
+                normal[k] = h.normal[closer]
         return RayHits(dist, geom, normal)
 
 

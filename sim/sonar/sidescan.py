@@ -124,6 +124,7 @@ class SideScanSonar:
             ]
         )
         self._probe_sin = np.concatenate([np.sin(probe), np.sin(probe)])
+        self._fan_cache = None
 
     # -- geometry -----------------------------------------------------------------------
     def _altitude(self, data, origin, R) -> float:
@@ -174,8 +175,14 @@ class SideScanSonar:
         p_port, R = m.pose(data, m.site_ids[0])
         p_stbd, _ = m.pose(data, m.site_ids[1])
         altitude = self._altitude(data, p_port, R)
-        theta, dtheta = self.depression_angles(altitude)
-        parts = [self._fan(theta, dtheta, s) for s in (1.0, -1.0)]
+        # the fan only depends on the altitude (to a quarter bin): reuse the last one
+        key = round(altitude / (0.25 * self.bin_width)) if np.isfinite(altitude) else None
+        if self._fan_cache is not None and self._fan_cache[0] == key:
+            parts = self._fan_cache[1]
+        else:
+            theta, dtheta = self.depression_angles(altitude)
+            parts = [self._fan(theta, dtheta, s) for s in (1.0, -1.0)]
+            self._fan_cache = (key, parts)
         n_side = parts[0][0].shape[0]
         rows = np.repeat(np.array([0, 1]), n_side)
         d_loc = np.concatenate([parts[0][0], parts[1][0]])

@@ -1,0 +1,169 @@
+"""Sonar speed: rays/s of both ray backends, SSS pings/s, FLS frames/s, MSIS pings/s.
+
+Scene: 200 m × 200 m rolling mesh seabed (224 × 224 quads ≈ 100k triangles) with a dozen
+static objects and one moving object, vehicle 10 m above it moving along x between pings.
+Targets (issue 3, this 2-core machine): SSS 2 × 1000 samples ≥ 500 pings/s, FLS
+256 beams × 512 bins × 16 rays/beam ≥ 30 frames/s. Embree and MuJoCo backends are timed
+side by side in the same run.
+
+    undersea bench sonar [--json] [--pings N] [--frames N] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import mujoco
+import numpy as np
+
+
+def _scene(cells: int):
+    from sim.sonar.scenes import SceneObject, build_scene
+
+    rng = np.random.default_rng(0)
+    objs = []
+    for k in range(12):
+        x, y = rng.uniform(-60, 60), rng.choice([-1, 1]) * rng.uniform(5, 40)
+        kind = ["box", "cylinder", "sphere"][k % 3]
+        size = {"box": (1.0, 0.6, 0.5), "cylinder": (0.4, 1.5), "sphere": (0.7,)}[kind]
+        objs.append(
+            SceneObject(kind, (x, y, 0.6), size, euler_deg=(0, 90 if kind == "cylinder" else 0, 30))
+        )
+    objs.append(SceneObject("box", (0.0, 20.0, 1.0), (1.0, 1.0, 1.0), moving=True))
+    return build_scene(
+        altitude=10.0, objects=objs, seabed_cells=cells, relief=0.5, seabed_size=200.0
+    )
+
+
+def _time(fn, n: int) -> float:
+    fn(0)  # warm-up
+    t0 = time.perf_counter()
+    for k in range(n):
+        fn(k)
+    return n / (time.perf_counter() - t0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="undersea bench sonar", description=__doc__.splitlines()[0])
+    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument("--pings", type=int, default=400, help="SSS pings per backend (default 400)")
+    ap.add_argument("--frames", type=int, default=40, help="FLS frames per backend (default 40)")
+    ap.add_argument("--quick", action="store_true", help="small counts for a smoke run")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.pings, args.frames = 20, 3
+
+    from sim.sonar import ForwardLookingSonar, MSISSonar, SideScanSonar, preset
+    from sim.sonar.rays import EmbreeRays, MujocoRays
+
+    t0 = time.perf_counter()
+    sc = _scene(224)
+    build_s = time.perf_counter() - t0
+    m, d = sc.model, sc.data
+    ntri = int(m.nmeshface)
+    out: dict = {
+        "machine_cpus": os.cpu_count(),
+        "triangles": ntri,
+        "scene_build_s": round(build_s, 3),
+    }
+
+    # raw ray throughput: 100k rays from the vehicle towards the seabed
+    rng = np.random.default_rng(1)
+    dirs = rng.normal(size=(100_000, 3))
+    dirs[:, 2] = -np.abs(dirs[:, 2]) - 0.3
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    o = d.site_xpos[sc.sites["sss"]].copy()
+    t0 = time.perf_counter()
+    emb = EmbreeRays(m, d, sc.vehicle_body)
+    out["embree_scene_build_s"] = round(time.perf_counter() - t0, 3)
+    muj = MujocoRays(m, sc.vehicle_body)
+    out["rays_per_s_embree"] = round(
+        _time(lambda k: emb.cast(d, o, dirs, 200.0), 5) * dirs.shape[0]
+    )
+    out["rays_per_s_mujoco"] = round(
+        _time(lambda k: muj.cast(d, o, dirs, 200.0), 2) * dirs.shape[0]
+    )
+
+    def mover(k):
+        d.qpos[0] = -50.0 + 0.1 * (k % 1000)
+        mujoco.mj_kinematics(m, d)
+
+    args_common = (m, d)
+    sss_cfg = preset("deepeye680d")  # 2 × 1000 samples, 50 m
+    fls_cfg = preset("blueview_p900_90", n_beams=256, n_bins=512, rays_per_beam=16, max_range=100.0)
+    for backend, n_p, n_f in (
+        ("embree", args.pings, args.frames),
+        ("mujoco", max(5, args.pings // 8), max(2, args.frames // 4)),
+    ):
+        sss = SideScanSonar(
+            sss_cfg,
+            *args_common,
+            sc.sites["sss"],
+            sc.geom_object_id,
+            sc.geom_reflectivity,
+            sc.water,
+            backend=backend,
+        )
+        prng = np.random.default_rng(0)
+
+        def ping(k, sss=sss, prng=prng):
+            mover(k)
+            sss.ping(d, prng)
+
+        pps = _time(ping, n_p)
+        theta, _ = sss.depression_angles(10.0)
+        rays_per_ping = 2 * theta.size * sss_cfg.rays_along_track + 14
+        out[f"sss_pings_per_s_{backend}"] = round(pps, 1)
+        out["sss_rays_per_ping"] = int(rays_per_ping)
+        fls = ForwardLookingSonar(
+            fls_cfg,
+            *args_common,
+            sc.sites["fls"],
+            sc.geom_object_id,
+            sc.geom_reflectivity,
+            sc.water,
+            backend=backend,
+        )
+
+        def frame(k, fls=fls, prng=prng):
+            mover(k)
+            fls.frame(d, prng)
+
+        out[f"fls_frames_per_s_{backend}"] = round(_time(frame, n_f), 1)
+        out["fls_rays_per_frame"] = fls.rays_per_frame
+    msis = MSISSonar(
+        preset("msis"),
+        *args_common,
+        sc.sites["msis"],
+        sc.geom_object_id,
+        sc.geom_reflectivity,
+        sc.water,
+    )
+    prng = np.random.default_rng(0)
+    out["msis_pings_per_s_embree"] = round(
+        _time(lambda k: msis.ping(d, prng, 0.01 * k), max(20, args.pings // 4)), 1
+    )
+    # echo formation alone (rays already cast), SSS
+    out["targets"] = {"sss_pings_per_s": 500, "fls_frames_per_s": 30}
+    out["meets_targets_embree"] = {
+        "sss": out["sss_pings_per_s_embree"] >= 500,
+        "fls": out["fls_frames_per_s_embree"] >= 30,
+    }
+    try:
+        out["load_average_1min"] = round(os.getloadavg()[0], 2)
+    except OSError:
+        pass
+    if args.json:
+        print(json.dumps(out))
+    else:
+        for k, v in out.items():
+            print(f"{k:>28}: {v}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
