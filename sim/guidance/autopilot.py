@@ -14,14 +14,18 @@ Loops (gains from sim.guidance.gains):
   only above 0.2 m/s);
   heading PID → N, derivative on the measured yaw rate.
 * speed: PI on surge speed over ground + damping feedforward → X. The speed demand
-  is reduced near the final waypoint, in sharp turns (heading error > 45°) and, for
+  is reduced near the final waypoint, in sharp turns (heading error > 45°; not for a
+  finned vehicle, whose rudder needs the speed) and, for
   hovering vehicles, while more than 0.5 m off the depth demand (dive, then transit).
 * depth: heave PID on the depth error + buoyancy feedforward → Z; and pitch PID → M to
   pitch 0 (hovering vehicles) or to θ_d from the depth → pitch loop (torpedo).
   Altitude missions set depth_d = depth + altitude − altitude_d from the state's
   altitude (holds the last depth demand while the altitude is unknown).
+* sway: PI holding the sway velocity at zero in transit → Y (ignored by vehicles
+  without lateral authority): a box hull otherwise crabs through turns.
 * roll PD → K (only used by vehicles that actuate roll).
-* waypoint switching: a waypoint is reached inside the mission's acceptance radius or
+* waypoint switching: a waypoint is reached inside the acceptance radius (the
+  mission's, at least the vehicle's turn radius at cruise speed) or
   when the along-track distance passes the leg end (so a vehicle pushed off the circle
   never circles back).
 * after the last waypoint: a ``hold`` mission keeps station there (surge/sway PIDs on
@@ -95,6 +99,11 @@ class Autopilot:
         self.pid_surge = PID(gains.surge)
         self.pid_sway = PID(gains.sway)
         self.pid_station = PID(gains.station_surge)
+        self.pid_sway_speed = PID(gains.sway_speed)
+        self._controlled = np.asarray(gains.controlled, bool)
+        # waypoint acceptance: the mission's radius, at least the vehicle's turn radius
+        # (except for the last waypoint of a station-keeping mission)
+        self.acceptance = max(mission.acceptance_radius, gains.turn_radius)
         self.pid_heading = PID(gains.heading)
         self.pid_depth = PID(gains.depth)
         self.pid_pitch = PID(gains.pitch)
@@ -154,9 +163,7 @@ class Autopilot:
         # --- waypoint switching
         while not self.done and self.leg < n_legs:
             los = los_guidance(pos, path[self.leg], path[self.leg + 1], g.lookahead)
-            reached = (
-                np.hypot(*(pos - path[self.leg + 1])) < m.acceptance_radius or los.remaining <= 0
-            )
+            reached = np.hypot(*(pos - path[self.leg + 1])) < self.acceptance or los.remaining <= 0
             if not reached:
                 break
             self.leg += 1
@@ -197,9 +204,10 @@ class Autopilot:
                 dz = abs(state.depth - self._depth_demand(state))
                 speed_d *= min(1.0, max(0.2, 1.5 - dz))
             herr = abs(wrap(psi_d - yaw))
-            if herr > math.pi / 4:
+            if herr > math.pi / 4 and not g.finned:
                 speed_d *= max(0.3, math.cos(herr))
             tau[0] = self._surge(speed_d, vel[0], dt)
+            tau[1] = self.pid_sway_speed.update(-float(vel[1]), dt)
         else:
             psi_d = self.status.heading_desired if self.status is not None else yaw
             speed_d = 0.0
@@ -228,6 +236,7 @@ class Autopilot:
         tau[4] = self.pid_pitch.update(theta_d - pitch, dt, error_rate=-omega[1])
         tau[3] = self.pid_roll.update(-roll, dt, error_rate=-omega[0])
 
+        tau[~self._controlled] = 0.0
         done_len = float(self._cum[min(self.leg, n_legs)]) if n_legs else 0.0
         if self.leg < n_legs:
             done_len += min(max(los.along_track, 0.0), los.leg_length)

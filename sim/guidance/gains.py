@@ -64,7 +64,8 @@ class VehiclePlant:
     kind; length m; inertia (6,) M_RB + M_A; linear_damping, quadratic_damping (6,);
     stiffness (6,) restoring, N·m/rad (roll: ρ g V BG; pitch: that minus the Munk term
     (A33 − A11) U²; yaw: −(A22 − A11) U²; negative = destabilising); net_buoyancy B − W, N;
-    max_effort (6,) N / N·m (inf = unknown); controlled (6,) bool; cruise_speed m/s.
+    max_effort (6,) N / N·m (inf = unknown); controlled (6,) bool; cruise_speed m/s;
+    finned: steered by control surfaces whose authority needs speed (torpedo).
     """
 
     kind: str
@@ -77,6 +78,7 @@ class VehiclePlant:
     max_effort: np.ndarray
     controlled: np.ndarray
     cruise_speed: float
+    finned: bool = False
 
     @classmethod
     def from_hydro(
@@ -88,7 +90,7 @@ class VehiclePlant:
         controlled,
         rho: float = 1025.0,
         cruise_speed: float | None = None,
-        munk_speed_limit: bool = True,
+        finned: bool = False,
     ) -> VehiclePlant:
         """From a ``sim.hydrodynamics.HydroParams`` (mass, inertia (3,), volume, r_cb,
         added_mass, linear_damping, quadratic_damping)."""
@@ -103,11 +105,11 @@ class VehiclePlant:
         u_max = _max_speed(dl[0], dq[0], max_effort[0])
         u = NOMINAL_SPEED.get(kind, 1.0) if cruise_speed is None else cruise_speed
         u = float(min(u, 0.8 * u_max))
-        if munk_speed_limit:
+        if not finned:
             # the destabilising Munk moment (A_jj - A_11) U² at a 0.3 rad heading/pitch
             # error may take at most half the yaw/pitch authority (propeller-driven
             # authority does not grow with speed; fin authority does, so a finned
-            # vehicle passes munk_speed_limit=False)
+            # vehicle is exempt)
             for dof, a_side in ((5, am[1]), (4, am[2])):
                 excess = (a_side - am[0]) * 0.3
                 if excess > 0 and controlled[dof] and math.isfinite(max_effort[dof]):
@@ -131,6 +133,7 @@ class VehiclePlant:
             max_effort=max_effort,
             controlled=np.asarray(controlled, bool),
             cruise_speed=u,
+            finned=bool(finned),
         )
 
 
@@ -185,11 +188,14 @@ def split_authority(
     columns, is_fin, max_forward, max_reverse, controlled, speed, weights=AUTHORITY_WEIGHTS
 ) -> np.ndarray:
     """(6,) demand limits such that ANY simultaneous demand within them is allocated
-    without saturating a channel: limit_j = w_j τmax_j, with the weights scaled down
-    until every channel's worst-case load Σ_j |f_ij| limit_j / F_i <= 1 (the allocation
-    is linear in tau, so the bound is exact). This keeps e.g. the pitch moment of the
-    vertical thrusters available while they also push the vehicle down — clipping one
-    channel of a saturated pseudo-inverse solution otherwise destroys the moment."""
+    without saturating a channel. With U_ij = |f_ij| τmax_j / F_i the load that a pure
+    full demand in DOF j puts on channel i (the allocation is linear in tau) and the
+    priority shares p_j = ``weights``, channel i carries load_i = Σ_j U_ij p_j; each DOF
+    gets limit_j = min(1, p_j min_{i used by j} 1/load_i) τmax_j, so Σ_j U_ij limit_j/τmax_j
+    <= 1 on every channel. A dedicated channel (a torpedo's rudder) keeps its full
+    authority; shared ones (a hovering vehicle's vertical thrusters doing heave and
+    pitch) are divided — clipping one channel of a saturated pseudo-inverse solution
+    would otherwise destroy e.g. the pitch moment while diving."""
     dofs = np.asarray(controlled, bool)
     tmax = max_wrench_from_columns(columns, is_fin, max_forward, max_reverse, dofs, speed)
     cols = np.asarray(columns, float).T.copy()
@@ -197,12 +203,14 @@ def split_authority(
     cols[:, fin] *= speed * abs(speed)
     lim = np.where(fin, max_forward, np.minimum(max_forward, max_reverse))
     pinv = np.linalg.pinv(cols[dofs], rcond=1e-6)  # (k, ndof)
-    w = np.asarray(weights, float)[dofs]
-    limits = w * tmax[dofs]
-    load = (np.abs(pinv) * limits[None, :]).sum(axis=1) / lim
-    scale = 1.0 / max(1.0, float(load.max()))
+    p = np.asarray(weights, float)[dofs]
+    U = np.abs(pinv) * tmax[dofs][None, :] / lim[:, None]  # (k, ndof)
+    load = U @ p  # (k,)
+    used = U > 1e-9
+    inv = np.where(used, 1.0 / np.maximum(load, 1e-12)[:, None], np.inf)
+    share = np.minimum(1.0, p * inv.min(axis=0))
     out = np.zeros(6)
-    out[dofs] = limits * scale
+    out[dofs] = share * tmax[dofs]
     return out
 
 
@@ -210,12 +218,16 @@ def split_authority(
 class AutopilotGains:
     """Everything the autopilot needs; see the module docstring for the derivation.
 
-    surge (speed), heading, depth (heave force), pitch, roll, station_surge and sway
-    (station keeping on the body-frame position error, N per m):
+    surge (speed), sway_speed (sway velocity held at 0 in transit by vehicles with
+    lateral thrusters: stops crabbing), heading, depth (heave force), pitch, roll,
+    station_surge and sway (station keeping on the body-frame position error, N per m):
     PIDGains with output limits in N / N·m. depth_to_pitch: PIDGains from depth error (m)
     to pitch demand (rad), used when ``depth_by_pitch``. lookahead m (LOS Δ), cruise_speed
     m/s, surge damping (d_l, d_q) for the speed feedforward, net_buoyancy N (heave
-    feedforward −(B − W))."""
+    feedforward −(B − W)); controlled (6,) DOFs the vehicle actuates (others are output
+    as 0); finned: keeps its speed in turns (its rudder needs it); turn_radius m at
+    cruise speed with full yaw authority (U / r_ss, d_l r + d_q r² = N_max), used as the
+    least waypoint acceptance radius so that the turn starts before the corner."""
 
     surge: PIDGains
     heading: PIDGains
@@ -223,6 +235,7 @@ class AutopilotGains:
     pitch: PIDGains
     roll: PIDGains
     sway: PIDGains
+    sway_speed: PIDGains
     station_surge: PIDGains
     depth_to_pitch: PIDGains
     depth_by_pitch: bool
@@ -230,6 +243,9 @@ class AutopilotGains:
     cruise_speed: float
     surge_damping: tuple[float, float]
     net_buoyancy: float = 0.0
+    controlled: tuple[bool, ...] = (True,) * 6
+    finned: bool = False
+    turn_radius: float = 0.0
 
 
 def _second_order(
@@ -263,6 +279,10 @@ def design_gains(plant: VehiclePlant) -> AutopilotGains:
     heading = _second_order(M[5], dl[5] + 2 * dq[5] * r_ref, k[5], tmax[5], 0.5)
     depth = _second_order(M[2], dl[2] + 2 * dq[2] * w_ref, k[2], tmax[2], 2.0)
     sway = _second_order(M[1], dl[1] + 2 * dq[1] * w_ref, k[1], tmax[1], 2.0)
+    d_v = dl[1] + 2.0 * dq[1] * w_ref
+    w_v = min(max(2.0 * d_v / M[1], 0.1), 1.0)
+    y_lim = tmax[1] if tmax[1] > 0 else math.inf
+    sway_speed = PIDGains(kp=M[1] * w_v, ki=M[1] * w_v * d_v / M[1], u_min=-y_lim, u_max=y_lim)
     station_surge = _second_order(M[0], dl[0] + 2 * dq[0] * w_ref, k[0], tmax[0], 2.0)
     pitch = _second_order(M[4], dl[4] + 2 * dq[4] * r_ref, k[4], tmax[4], 0.3)
     roll = _second_order(M[3], dl[3] + 2 * dq[3] * r_ref, k[3], tmax[3], 0.3, integral=False)
@@ -273,6 +293,9 @@ def design_gains(plant: VehiclePlant) -> AutopilotGains:
     depth_to_pitch = PIDGains(
         kp=kp_z, ki=kp_z * (max(U, 0.1) / dz) / 10.0, u_min=-theta_max, u_max=theta_max
     )
+    n_max = tmax[5] if tmax[5] > 0 else math.inf
+    r_ss = _max_speed(dl[5], dq[5], n_max)
+    turn_radius = U / r_ss if r_ss > 0 and math.isfinite(r_ss) else 0.0
     return AutopilotGains(
         surge=surge,
         heading=heading,
@@ -280,6 +303,7 @@ def design_gains(plant: VehiclePlant) -> AutopilotGains:
         pitch=pitch,
         roll=roll,
         sway=sway,
+        sway_speed=sway_speed,
         station_surge=station_surge,
         depth_to_pitch=depth_to_pitch,
         depth_by_pitch=bool(depth_by_pitch),
@@ -287,4 +311,7 @@ def design_gains(plant: VehiclePlant) -> AutopilotGains:
         cruise_speed=U,
         surge_damping=(float(dl[0]), float(dq[0])),
         net_buoyancy=float(plant.net_buoyancy),
+        controlled=tuple(bool(c) for c in plant.controlled),
+        finned=bool(plant.finned),
+        turn_radius=float(turn_radius),
     )

@@ -1,17 +1,19 @@
-"""PID controller with output saturation and back-calculation anti-windup.
+"""PID controller with output saturation and anti-windup.
 
-Textbook form (Åström & Murray, *Feedback Systems*, §11.3, and Åström & Hägglund,
+Textbook form (Åström & Murray, *Feedback Systems*, §11.3; Åström & Hägglund,
 *Advanced PID Control*, §3.5):
 
     v = u_ff + kp e + I + kd ė,     u = clip(v, u_min, u_max),
-    dI/dt = ki e + (u - v) / T_t,
 
 with the derivative taken on the measurement (the caller passes ``error_rate``, e.g.
-``-measured_rate`` for a constant set-point, to avoid derivative kick) and the tracking
-time ``T_t`` = √(T_i T_d) for a PID, T_i for a PI (T_i = kp/ki, T_d = kd/kp). While the
-output is saturated the integrator is driven back so that v stays near the limit, which
-prevents integrator windup. Written here (not python-control / simple-pid) because it is
-ten lines and must be allocation-free in the control loop.
+``-measured_rate`` for a constant set-point, to avoid derivative kick). Anti-windup by
+conditional integration ("clamping"): dI/dt = ki e, except while the output is
+saturated and the error pushes it further into saturation; and I itself is kept inside
+the output range. (Back-calculation, dI/dt = ki e + (u − v)/T_t, was tried first and
+rejected: with a large kp·e beyond the limit — a heading error of 90° — it drives I to
+u_max − kp e, far negative, and the loop undershoots once the error shrinks.)
+Written here (not python-control / simple-pid) because it is a dozen lines and runs
+in the control loop.
 """
 
 from __future__ import annotations
@@ -25,15 +27,14 @@ __all__ = ["PID", "PIDGains"]
 @dataclass(frozen=True)
 class PIDGains:
     """kp (output/error), ki (output/(error·s)), kd (output·s/error) >= 0; output limits
-    u_min < u_max (may be infinite); tracking_time T_t > 0 in s (None: the default above);
-    anti_windup False disables back-calculation (for comparison)."""
+    u_min < u_max (may be infinite); anti_windup False disables the clamping (for
+    comparison)."""
 
     kp: float
     ki: float = 0.0
     kd: float = 0.0
     u_min: float = -math.inf
     u_max: float = math.inf
-    tracking_time: float | None = None
     anti_windup: bool = True
 
     def __post_init__(self) -> None:
@@ -45,23 +46,6 @@ class PIDGains:
             raise ValueError(
                 f"PIDGains needs u_min < u_max, got u_min={self.u_min!r}, u_max={self.u_max!r}"
             )
-        if self.tracking_time is not None and not (
-            math.isfinite(self.tracking_time) and self.tracking_time > 0
-        ):
-            raise ValueError(
-                f"PIDGains.tracking_time must be > 0 s or None, got {self.tracking_time!r}"
-            )
-
-    @property
-    def tt(self) -> float:
-        """The tracking time used, s."""
-        if self.tracking_time is not None:
-            return self.tracking_time
-        if self.ki <= 0:
-            return math.inf
-        ti = self.kp / self.ki if self.kp > 0 else 1.0 / self.ki
-        td = self.kd / self.kp if self.kp > 0 else 0.0
-        return math.sqrt(ti * td) if td > 0 else ti
 
     def scaled(self, factor: float) -> PIDGains:
         """Same controller with all gains and limits multiplied by ``factor`` > 0."""
@@ -73,7 +57,6 @@ class PIDGains:
             self.kd * factor,
             self.u_min * factor,
             self.u_max * factor,
-            self.tracking_time,
             self.anti_windup,
         )
 
@@ -110,10 +93,12 @@ class PID:
         v = feedforward + g.kp * error + self.integral + g.kd * error_rate
         u = min(max(v, g.u_min), g.u_max)
         self.saturated = u != v
-        di = g.ki * error
-        if g.anti_windup and g.ki > 0:
-            tt = g.tt
-            # exact decay of the tracking term over dt keeps the update stable for dt > T_t
-            di += (u - v) * (1.0 - math.exp(-dt / tt)) / dt
-        self.integral += di * dt
+        if g.ki > 0:
+            di = g.ki * error * dt
+            if g.anti_windup:
+                if (v > g.u_max and di > 0) or (v < g.u_min and di < 0):
+                    di = 0.0
+                self.integral = min(max(self.integral + di, g.u_min), g.u_max)
+            else:
+                self.integral += di
         return u

@@ -90,7 +90,7 @@ def plant_for(world, name: str, cruise_speed: float | None = None) -> VehiclePla
         dofs,
         rho=world.water.density,
         cruise_speed=u0,
-        munk_speed_limit=not bool(np.any(bank.is_fin[lo:hi])),
+        finned=bool(np.any(bank.is_fin[lo:hi])),
     )
 
 
