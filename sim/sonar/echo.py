@@ -109,26 +109,21 @@ def form_echo(
     g = np.where(hit, hits.geom, 0)
     r = np.where(hit, hits.dist, 0.0)
     n = hits.normal
-    nd = n[:, 0] * dirs[:, 0] + n[:, 1] * dirs[:, 1] + n[:, 2] * dirs[:, 2]
-    cos_i = np.abs(nd)
-    ndd = np.abs(n[:, 0] * d_dirs[:, 0] + n[:, 1] * d_dirs[:, 1] + n[:, 2] * d_dirs[:, 2])
+    cos_i = np.abs(np.einsum("ij,ij->i", n, dirs))
+    ndd = np.abs(np.einsum("ij,ij->i", n, d_dirs))
     rs = np.maximum(r, 1e-3)
     # Lambert μ cos²θ (μ folded into gain) plus the optional specular lobe, per area
     # r²ΔΩ/cosθ: E ∝ (μ cos²θ + σ_s(θ)) / cosθ
-    sigma_over_cos = cos_i
+    sigma_over_cos = cos_i.copy()
     if specular is not None:
         spec_peak, spec_w = specular
-        th = np.arccos(np.clip(cos_i, 0.0, 1.0))
-        sigma_over_cos = cos_i + spec_peak * np.exp(-0.5 * (th / spec_w) ** 2) / np.maximum(
-            cos_i, 0.05
-        )
-    energy = (
-        gain
-        * geom_reflectivity[g]
-        * sigma_over_cos
-        * np.exp(-0.2 * np.log(10.0) * alpha_db_m * r)
-        / (rs * rs)
-    )
+        # the lobe is below e^-12.5 of its peak beyond 5 widths: evaluate it only nearer
+        near = np.flatnonzero(cos_i > np.cos(min(5.0 * spec_w, np.pi / 2)))
+        cn = np.minimum(cos_i[near], 1.0)
+        th = np.arccos(cn)
+        sigma_over_cos[near] += spec_peak * np.exp(-0.5 * (th / spec_w) ** 2) / np.maximum(cn, 0.05)
+    energy = gain * geom_reflectivity[g] * sigma_over_cos
+    energy *= np.exp((-0.2 * np.log(10.0) * alpha_db_m) * r) / (rs * rs)
     energy[~hit] = 0.0
     ext = np.minimum(r * ndd / np.maximum(cos_i, 0.02), MAX_EXTENT_FRACTION * r) / bin_width
     ext = np.clip(ext, MIN_EXTENT_BINS, MAX_EXTENT_BINS)

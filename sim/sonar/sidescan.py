@@ -178,17 +178,18 @@ class SideScanSonar:
         # the fan only depends on the altitude (to a quarter bin): reuse the last one
         key = round(altitude / (0.25 * self.bin_width)) if np.isfinite(altitude) else None
         if self._fan_cache is not None and self._fan_cache[0] == key:
-            parts = self._fan_cache[1]
+            d_loc, dd_loc, gain, rows = self._fan_cache[1]
         else:
             theta, dtheta = self.depression_angles(altitude)
             parts = [self._fan(theta, dtheta, s) for s in (1.0, -1.0)]
-            self._fan_cache = (key, parts)
-        n_side = parts[0][0].shape[0]
-        rows = np.repeat(np.array([0, 1]), n_side)
-        d_loc = np.concatenate([parts[0][0], parts[1][0]])
+            d_loc = np.concatenate([parts[0][0], parts[1][0]])
+            dd_loc = np.concatenate([parts[0][1], parts[1][1]])
+            gain = np.concatenate([parts[0][2], parts[1][2]])
+            rows = np.repeat(np.array([0, 1], np.int64), parts[0][0].shape[0])
+            self._fan_cache = (key, (d_loc, dd_loc, gain, rows))
+        n_side = d_loc.shape[0] // 2
         dirs = d_loc @ R.T
-        d_dirs = np.concatenate([parts[0][1], parts[1][1]]) @ R.T
-        gain = np.concatenate([parts[0][2], parts[1][2]])
+        d_dirs = dd_loc @ R.T
         if m.site_ids[0] == m.site_ids[1]:
             hits = m.backend.cast(data, p_port, dirs, m.cutoff)
             echo = form_echo(
