@@ -472,14 +472,28 @@ class FastSLAM2:
             if used and exists[:, :used].any():
                 ex = exists[:, :used]
                 zhat, Hv, Hf = observation_model(xv[:, None, :], m[:, :used])  # (n, used, ...)
-                S0 = _quad(Hv, Pv[:, None]) + _quad(Hf, P[:, :used])  # (n, used, 2, 2)
-                S = S0[:, None] + R[j_unk][None, :, None]  # (n, ku, cap, 2, 2)
-                v = Z[j_unk][None, :, None] - zhat[:, None]
+                v = Z[j_unk][None, :, None] - zhat[:, None]  # (n, ku, used, 2)
                 v[..., 1] = _wrap(v[..., 1])
-                Si, det = _inv2(S)
-                d2 = np.einsum("...i,...ij,...j->...", v, Si, v)
-                d2 = np.where(ex[:, None, :], d2, np.inf)
-                ll = -0.5 * d2 - 0.5 * np.log(det) - _LOG_2PI
+                # Cheap lower bound on the NIS: S <= tr(S) I, and with ||Hv||_F^2 = 2 + 1/d^2,
+                # ||Hf||_F^2 = 1 + 1/d^2: tr(S) <= tr(Pv)(2 + 1/d^2) + tr(Pf)(1 + 1/d^2) + tr(R).
+                # Only pairs whose bound is below the augment gate need the exact S (most
+                # landmarks of a map are far from a given observation).
+                inv_d2 = 1.0 / np.maximum(zhat[..., 0] ** 2, 1e-12)  # (n, used)
+                trPv = np.trace(Pv, axis1=1, axis2=2)[:, None]
+                trPf = P[:, :used, 0, 0] + P[:, :used, 1, 1]
+                tr_bound = trPv * (2.0 + inv_d2) + trPf * (1.0 + inv_d2)  # (n, used)
+                tr_bound = tr_bound[:, None] + np.trace(R[j_unk], axis1=1, axis2=2)[None, :, None]
+                lower = np.einsum("...i,...i->...", v, v) / tr_bound  # (n, ku, used)
+                pi, pq, pl = np.nonzero((lower < cfg.augment_gate) & ex[:, None, :])
+                d2 = np.full((n, ku, used), np.inf)
+                ll = np.full((n, ku, used), -np.inf)
+                if pi.size:
+                    S = _quad(Hv[pi, pl], Pv[pi]) + _quad(Hf[pi, pl], P[pi, pl]) + R[j_unk][pq]
+                    Si, det = _inv2(S)
+                    vv = v[pi, pq, pl]
+                    dd = np.einsum("...i,...ij,...j->...", vv, Si, vv)
+                    d2[pi, pq, pl] = dd
+                    ll[pi, pq, pl] = -0.5 * dd - 0.5 * np.log(det) - _LOG_2PI
                 ll_gated = np.where(d2 < cfg.reject_gate, ll, -np.inf)
                 best = np.argmax(ll_gated, axis=2)  # (n, ku)
                 best_ll = np.take_along_axis(ll_gated, best[..., None], 2)[..., 0]
