@@ -60,3 +60,31 @@ def test_weights_and_covariances_stay_valid(steps, seed, mode):
         live = f._P[f._exists]
         if len(live):
             assert _psd(live)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    pose=st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.floats(-3.1, 3.1)),
+    lm=st.tuples(st.floats(-50, 50), st.floats(-50, 50)),
+    z=st.tuples(st.floats(0.1, 60.0), st.floats(-3.1, 3.1)),
+    seed=st.integers(0, 10_000),
+)
+def test_trace_bound_never_exceeds_the_exact_nis(pose, lm, z, seed):
+    """The association prunes pairs with ``|v|² / tr_bound >= augment_gate``; that is only
+    safe if ``|v|² / tr_bound <= vᵀ S⁻¹ v`` always (S <= tr(S) I <= tr_bound I)."""
+    from slam.estimators.fastslam2 import _wrap, observation_model
+
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((3, 3)) * rng.uniform(0, 2)
+    B = rng.standard_normal((2, 2)) * rng.uniform(0, 2)
+    Pv, Pf = A @ A.T, B @ B.T
+    R = np.diag(rng.uniform(1e-4, 1.0, 2))
+    x, m = np.array(pose), np.array(lm)
+    zhat, Hv, Hf = observation_model(x, m)
+    S = Hv @ Pv @ Hv.T + Hf @ Pf @ Hf.T + R
+    v = np.array(z) - zhat
+    v[1] = _wrap(v[1])
+    exact = v @ np.linalg.solve(S, v)
+    inv_d2 = 1.0 / max(zhat[0] ** 2, 1e-12)
+    bound = np.trace(Pv) * (2 + inv_d2) + np.trace(Pf) * (1 + inv_d2) + np.trace(R)
+    assert v @ v / bound <= exact * (1 + 1e-9) + 1e-12
