@@ -339,3 +339,48 @@ def test_absorption_validity_checked_at_construction(flat_scene):
         sc.geom_reflectivity,
         w,
     )
+
+
+def test_every_sample_whose_ray_hit_object_k_carries_k():
+    """Ground truth at ray level: cast the ping's own rays, and every range cell holding the
+    hit of a ray on object k (k = 1, 2) is labelled k; cells holding only seabed hits are 0."""
+    from sim.sonar.echo import form_echo
+
+    objs = [
+        SceneObject("box", (0.0, 12.0, 0.8), (1.0, 1.0, 0.8)),
+        SceneObject("sphere", (0.0, -15.0, 0.6), (0.6,)),
+    ]
+    sc = build_scene(altitude=9.0, objects=objs, seabed_cells=20)
+    son = _sonar(sc)
+    son.ping(sc.data, np.random.default_rng(0))
+    _, (d_loc, dd_loc, gain, rows) = son._fan_cache
+    p, R = son.mount.pose(sc.data, sc.sites["sss"])
+    dirs, dd = d_loc @ R.T, dd_loc @ R.T
+    m = son.mount
+    hits = m.backend.cast(sc.data, p, dirs, m.cutoff)
+    echo = form_echo(
+        hits,
+        p,
+        dirs,
+        dd,
+        gain,
+        rows,
+        2,
+        son.config.samples_per_side,
+        0.0,
+        son.bin_width,
+        m.geom_object_id,
+        m.geom_reflectivity,
+        m.alpha_db_m,
+        m.specular,
+    )
+    ray_id = np.where(hits.geom >= 0, sc.geom_object_id[np.maximum(hits.geom, 0)], -1)
+    cell = np.floor(hits.dist / son.bin_width)
+    for k in (1, 2):
+        sel = (ray_id == k) & (cell < son.config.samples_per_side)
+        assert sel.sum() > 5
+        assert np.all(echo.labels[rows[sel], cell[sel].astype(int)] == k)
+    sb = (ray_id == 0) & (cell < son.config.samples_per_side)
+    lab_sb = echo.labels[rows[sb], cell[sb].astype(int)]
+    assert np.all((lab_sb == 0) | (lab_sb >= 1))  # seabed unless an object shares the cell
+    assert np.mean(lab_sb == 0) > 0.9  # objects win only in the few cells they share
