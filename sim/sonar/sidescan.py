@@ -316,9 +316,9 @@ def ground_range(slant_range: np.ndarray, altitude: float | np.ndarray) -> np.nd
 
 @dataclass(frozen=True)
 class GroundRangeImage:
-    """Slant-range-corrected waterfall: image (P, 2G) float32 (port left, far first);
-    ground_range (2G,) m of each column (port negative... stored as signed: port > 0 to
-    the left? no: columns hold |ground range|, ``side`` tells which side)."""
+    """Slant-range-corrected waterfall: image (P, 2G) float32, port half on the left (far
+    range first), starboard half on the right; ground_range (2G,) m, the unsigned ground
+    range of each column; side (2G,) "port" / "starboard"."""
 
     image: np.ndarray
     ground_range: np.ndarray
