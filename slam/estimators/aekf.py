@@ -542,6 +542,11 @@ class AEKFConfig:
     joseph : Joseph-form covariance update instead of ``P - W1 W1ᵀ``.
     jacobians : "standard" EKF, or "fej" first-estimates Jacobians (consistency).
     unambiguous_gate : see :func:`associate`; None (Bailey's rule) by default.
+    merge_gate : landmark fusion (beyond Bailey; None = off): every ``merge_every`` scans,
+        two landmarks closer than ``merge_radius_m`` whose difference is compatible with
+        zero (``dᵀ C⁻¹ d < merge_gate``, C the covariance of the difference) are fused by
+        the constraint ``x_i - x_j = 0`` (an exact observation) and the newer one removed:
+        a landmark duplicated at a loop closure rejoins its original.
     fej_gating : with FEJ, gate the association with the FEJ Jacobians too; default False
         gates with the current-estimate Jacobians (first estimates can be far off after a
         loop closure, and a wrong S in the gate creates duplicate landmarks).
@@ -564,6 +569,9 @@ class AEKFConfig:
     reduction_margin_m: float = 3.0
     fej_gating: bool = False
     unambiguous_gate: float | None = None
+    merge_gate: float | None = None
+    merge_radius_m: float = 5.0
+    merge_every: int = 10
 
     def __post_init__(self) -> None:
         if not (self.reject_gate > 0 and math.isfinite(self.reject_gate)):
@@ -632,6 +640,8 @@ class AEKFSlam:
         self.hits = np.empty(0, dtype=np.int64)
         self._next_id = 0
         self.n_removed = 0
+        self.n_merged = 0
+        self._scans = 0
 
     # ---- SlamEstimator
     def predict(self, odometry: Odometry) -> None:
@@ -673,7 +683,7 @@ class AEKFSlam:
         n = self.n_landmarks
         x_lin = self._x_lin()
         if k == 0:
-            self._reduce(np.zeros(0, dtype=np.intp))
+            self._end_of_scan(np.zeros(0, dtype=np.intp), None)
             return UpdateResult(np.zeros(0, np.intp), np.zeros(0, bool), np.zeros(0))
         compatible = None  # landmarks some observation could be (NIS < augment gate)
         if cfg.association == "known":
@@ -725,7 +735,7 @@ class AEKFSlam:
             assoc[new] = n + np.arange(m)
         if np.any(known):
             self.hits[idx[known]] += 1
-        assoc = self._reduce(assoc, compatible)
+        assoc = self._end_of_scan(assoc, compatible)
         return UpdateResult(assoc, new, nis)
 
     def pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -770,6 +780,83 @@ class AEKFSlam:
             nw = np.flatnonzero(new)
             new[nw[~keep]] = False
         return idx, new
+
+    def _end_of_scan(self, assoc: np.ndarray, compatible) -> np.ndarray:
+        """State reduction and landmark fusion after a scan; returns remapped indices."""
+        assoc = self._reduce(assoc, compatible)
+        self._scans += 1
+        cfg = self.config
+        if cfg.merge_gate is not None and self._scans % cfg.merge_every == 0:
+            assoc = self._merge_duplicates(assoc)
+        return assoc
+
+    def _merge_duplicates(self, assoc: np.ndarray) -> np.ndarray:
+        """Fuse statistically identical landmark pairs (see ``AEKFConfig.merge_gate``)."""
+        from scipy.spatial import cKDTree
+
+        cfg = self.config
+        n = self.n_landmarks
+        if n < 2:
+            return assoc
+        lm = self.x[3:].reshape(n, 2)
+        pairs = cKDTree(lm).query_pairs(cfg.merge_radius_m, output_type="ndarray")
+        if pairs.size == 0:
+            return assoc
+        i, j = pairs[:, 0], pairs[:, 1]
+        P = self.P
+        a, b = 3 + 2 * i, 3 + 2 * j
+        blk = lambda r, c: np.stack(  # noqa: E731
+            [np.stack([P[r, c], P[r, c + 1]], -1), np.stack([P[r + 1, c], P[r + 1, c + 1]], -1)], -2
+        )
+        C = blk(a, a) + blk(b, b) - blk(a, b) - blk(b, a)
+        d = lm[i] - lm[j]
+        det = C[:, 0, 0] * C[:, 1, 1] - C[:, 0, 1] * C[:, 1, 0]
+        q = (
+            C[:, 1, 1] * d[:, 0] ** 2
+            - 2 * C[:, 0, 1] * d[:, 0] * d[:, 1]
+            + C[:, 0, 0] * d[:, 1] ** 2
+        ) / det
+        cand = np.flatnonzero((q < cfg.merge_gate) & (det > 0))
+        if cand.size == 0:
+            return assoc
+        drop: list[int] = []
+        used: set[int] = set()
+        for c in cand[np.argsort(q[cand])]:  # the few compatible pairs, best first
+            keep_i, gone = (
+                (int(i[c]), int(j[c]))
+                if self.ids[i[c]] < self.ids[j[c]]
+                else (int(j[c]), int(i[c]))
+            )
+            if keep_i in used or gone in used:
+                continue
+            used.update((keep_i, gone))
+            self._fuse(keep_i, gone)
+            drop.append(gone)
+        self.n_merged += len(drop)
+        dropped = np.asarray(drop, dtype=np.intp)
+        self.x, self.P = remove_landmarks(self.x, self.P, dropped)
+        keep = np.ones(n, dtype=bool)
+        keep[dropped] = False
+        for name in ("_lm_first", "labels", "ids", "misses", "hits"):
+            setattr(self, name, getattr(self, name)[keep])
+        new_index = np.cumsum(keep) - 1
+        out = assoc.copy()
+        m = out >= 0
+        out[m] = np.where(keep[out[m]], new_index[out[m]], -1)
+        return out
+
+    def _fuse(self, i: int, j: int) -> None:
+        """Kalman update with the exact constraint ``x_i - x_j = 0`` (H = [.. I .. -I ..])."""
+        a, b = 3 + 2 * i, 3 + 2 * j
+        PHt = self.P[:, a : a + 2] - self.P[:, b : b + 2]
+        S = PHt[a : a + 2] - PHt[b : b + 2]
+        S = 0.5 * (S + S.T) + 1e-12 * np.eye(2)
+        L = np.linalg.cholesky(S)
+        W1 = _trsolve(L, PHt.T).T
+        y = -(self.x[a : a + 2] - self.x[b : b + 2])
+        self.x += W1 @ _trsolve(L, y)
+        self.x[2] = _wrap_f(float(self.x[2]))
+        _subtract_outer(self.P, W1)
 
     def _reduce(self, assoc: np.ndarray, compatible=None) -> np.ndarray:
         """Count misses of landmarks predicted inside the footprint that no observation of

@@ -409,3 +409,33 @@ def test_covariance_stays_symmetric_psd_over_random_sequences(seed, steps, josep
         np.testing.assert_allclose(P, P.T, atol=1e-12 * max(1.0, np.abs(P).max()))
         w = np.linalg.eigvalsh(P)
         assert w.min() > -1e-9 * max(1.0, w.max())
+
+
+def test_merge_fuses_a_duplicated_landmark_exactly():
+    """Two estimates of one point (augmented from two observations) are fused by the
+    exact constraint x_i = x_j: the result equals the textbook KF with H = [I, -I], R = 0,
+    and the newer duplicate is removed."""
+    f = AEKFSlam(merge_gate=9.0, merge_every=1)
+    R = np.diag([0.01, 3e-4])
+    f.update_arrays([[10.0, 0.3]], R)
+    x, P = f.state()
+    # a second landmark from a slightly different observation of the same point, added
+    # directly (association would have matched it)
+    xa, Pa = augment(x, P, np.array([[10.05, 0.302]]), R)
+    H = np.zeros((2, xa.size))
+    H[:, 3:5] = np.eye(2)
+    H[:, 5:7] = -np.eye(2)
+    S = H @ Pa @ H.T
+    K = Pa @ H.T @ np.linalg.inv(S)
+    x_ref = xa + K @ (0 - H @ xa)
+    P_ref = (np.eye(xa.size) - K @ H) @ Pa
+    f.x, f.P = xa, Pa
+    f._lm_first = xa[3:].reshape(2, 2).copy()
+    f.labels = np.array([-1, -1])
+    f.ids = np.array([0, 1])
+    f.misses = np.zeros(2, np.int64)
+    f.hits = np.ones(2, np.int64)
+    f.update_arrays(np.zeros((0, 2)), R)
+    assert f.n_landmarks == 1 and f.n_merged == 1
+    np.testing.assert_allclose(f.x, x_ref[:5], atol=1e-9)
+    np.testing.assert_allclose(f.P, P_ref[:5, :5], atol=1e-9)
