@@ -142,8 +142,8 @@ class World:
     _hydro_params: list[HydroParams] = field(default_factory=list)
     _static_parts: list = field(default_factory=list)  # (vertices world, faces, geom_id)
     _external: np.ndarray | None = None
-    _bid: np.ndarray | None = None
-    _dofs: np.ndarray | None = None
+    _bid: np.ndarray | slice | None = None
+    _dofs: np.ndarray | slice | None = None
     _init_qpos: np.ndarray | None = None
     _static_cache: tuple | None = None
 
@@ -158,7 +158,7 @@ class World:
     def _apply_forces(self) -> None:
         d = self.data
         bid = self._bid
-        qv = d.qvel[self._dofs]
+        qv = d.qvel[self._dofs].reshape(-1, 6)
         if self.current.is_zero:
             cur = None
         else:
@@ -513,6 +513,12 @@ def build_world(spec: WorldSpec) -> World:
         world.hydro = HydroBatch(params, water.density, water.gravity, water.surface_z)
         adr = np.array([model.jnt_dofadr[model.body_jntadr[b]] for b in bids])
         world._dofs = adr[:, None] + np.arange(6)[None, :]
+        # vehicles are attached last, one body and one free joint each: use slices (views,
+        # cheaper than fancy indexing every step) when their ids are contiguous
+        if np.array_equal(world._bid, np.arange(bids[0], bids[0] + len(bids))):
+            world._bid = slice(int(bids[0]), int(bids[0]) + len(bids))
+        if np.array_equal(world._dofs.ravel(), np.arange(adr[0], adr[0] + 6 * len(bids))):
+            world._dofs = slice(int(adr[0]), int(adr[0]) + 6 * len(bids))
     world._init_qpos = data.qpos.copy()
     world._forward()
     return world
