@@ -93,13 +93,17 @@ def form_echo(
     geom_reflectivity: np.ndarray,
     alpha_db_m: float,
     specular: tuple[float, float] | None = None,
+    footprint_scale: float = 1.0,
 ) -> Echo:
     """Bin ray hits into (rows, bins) mean intensity, labels and hit positions.
 
     dirs (N, 3) unit world ray directions; d_dirs (N, 3) = ∂d/∂θ·Δθ, the direction change to
     the next ray across the sampled fan angle (sets the range footprint); gain (N,)
     SL·b²·ΔΩ·μ (linear); rows (N,) int64 output row per ray; r_min, bin_width in m;
-    specular: (σ_s peak / μ, lobe width rad) or None.
+    specular: (σ_s peak / μ, lobe width rad) or None. footprint_scale: each ray's energy
+    is spread over ``footprint_scale`` × its footprint (1: footprints tile the range axis;
+    2: neighbouring footprints overlap by half, which smooths the steps between coarsely
+    spaced rays at the cost of blurring edges by half a footprint).
 
     Hit positions: cells holding a ray's footprint centre get the energy-weighted mean of
     those rays' hit points; covered cells between centres are linearly interpolated along
@@ -126,7 +130,7 @@ def form_echo(
     energy *= np.exp((-0.2 * np.log(10.0) * alpha_db_m) * r) / (rs * rs)
     energy[~hit] = 0.0
     ext = np.minimum(r * ndd / np.maximum(cos_i, 0.02), MAX_EXTENT_FRACTION * r) / bin_width
-    ext = np.clip(ext, MIN_EXTENT_BINS, MAX_EXTENT_BINS)
+    ext = np.clip(ext * footprint_scale, MIN_EXTENT_BINS, MAX_EXTENT_BINS)
     fc = (r - r_min) / bin_width
     fc[~hit] = n_bins + MAX_EXTENT_BINS + 1.0  # off the end: contributes nothing
     a = fc - 0.5 * ext

@@ -127,6 +127,7 @@ class ForwardLookingSonar:
             m.geom_reflectivity,
             m.alpha_db_m,
             m.specular,
+            1.0,
         )
         r = np.broadcast_to(self.ranges[None, :], echo.mean.shape).reshape(-1)
         img = finish_samples(echo.mean.reshape(-1), r, m.alpha_db_m, c.acoustic, rng).reshape(

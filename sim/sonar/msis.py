@@ -145,6 +145,7 @@ class MSISSonar:
             m.geom_reflectivity,
             m.alpha_db_m,
             m.specular,
+            1.0,
         )
         inten = finish_samples(echo.mean[0], self.ranges, m.alpha_db_m, c.acoustic, rng)
         return MSISPing(
