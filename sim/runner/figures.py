@@ -148,24 +148,16 @@ def plot_sss_mosaic(
     objects: Sequence[tuple[str, np.ndarray, np.ndarray]],
     title: str = "",
 ) -> Path:
-    """Georeferenced side-scan mosaics (log display) with detections and true objects."""
+    """Georeferenced side-scan mosaics with detections and true objects. The grids hold
+    the sonar's display values (log-compressed by the sonar, or linear): shown with a
+    1-99.7 percentile stretch."""
     plt = _plt()
     n = max(1, len(mosaics))
     fig, axes = plt.subplots(1, n, figsize=(8 * n, 7), dpi=110, squeeze=False)
     for ax, (name, (grid, ext)) in zip(axes[0], mosaics.items()):
         g = np.where(np.isfinite(grid), grid, np.nan)
-        pos = g[np.isfinite(g) & (g > 0)]
-        top = np.percentile(pos, 99.5) if pos.size else 1.0
-        disp = 10 * np.log10(np.clip(g / top, 1e-4, None))
-        ax.imshow(
-            disp,
-            extent=ext,
-            cmap="copper",
-            vmin=-40,
-            vmax=0,
-            origin="upper",
-            interpolation="nearest",
-        )
+        lo, hi = np.nanpercentile(g, [1.0, 99.7]) if np.isfinite(g).any() else (0.0, 1.0)
+        ax.imshow(g, extent=ext, cmap="copper", vmin=lo, vmax=hi, origin="upper", interpolation="nearest")
         for _cls, p, size in objects:
             ax.add_patch(
                 plt.Rectangle(

@@ -71,8 +71,12 @@ class LaggedSlam:
     on_update(t, observations, result) is called after each update (for logging/metrics).
     """
 
-    def __init__(self, estimator, t0: float = 0.0, on_update: Callable | None = None) -> None:
+    def __init__(
+        self, estimator, t0: float = 0.0, on_update: Callable | None = None, record_dt: float = 1.0
+    ) -> None:
         self.estimator = estimator
+        self.record_dt = float(record_dt)  # the pose history gets a node at least this often
+        self._next_record = float(t0) + self.record_dt
         self.t_done = float(t0)  # everything up to here has been fed
         self._odo: list[Odometry] = []  # contiguous increments after t_done, time ordered
         self._obs: list[tuple[float, int, list[RangeBearing]]] = []  # heap by time
@@ -109,6 +113,12 @@ class LaggedSlam:
             d, C = compose_increments(d, C, o.delta, o.cov)
             n += 1
             self.t_done = o.t
+            if self.t_done >= self._next_record - 1e-9 and (self._odo and self._odo[0].t <= t + 1e-9):
+                # a history node on the record grid (predict so far, record, go on)
+                self.estimator.predict(Odometry(d, C, self.t_done))
+                self.n_predicts += 1
+                self._record()
+                d, C, n = np.zeros(3), np.zeros((3, 3)), 0
         if n:
             self.estimator.predict(Odometry(d, C, self.t_done))
             self.n_predicts += 1
@@ -129,6 +139,8 @@ class LaggedSlam:
             self._record()
 
     def _record(self) -> None:
+        while self._next_record <= self.t_done + 1e-9:
+            self._next_record += self.record_dt
         x, P = self.estimator.pose()
         self.history.append(PoseRecord(self.t_done, np.array(x, float), np.array(P, float)))
 

@@ -93,13 +93,21 @@ def test_late_observation_applied_at_pose_of_its_ping():
         lag.add_observations(0.2, [obs])
 
 
-def test_odometry_between_observations_is_one_predict():
-    est = _Recorder()
-    lag = LaggedSlam(est)
-    for k in range(1, 6):
-        lag.add_odometry(Odometry([1.0, 0, 0.1], np.eye(3) * 1e-4, t=float(k)))
-    lag.release(5.0)
-    assert [c[0] for c in est.calls] == ["predict"] and lag.t_done == 5.0
+def test_odometry_between_observations_is_one_predict_unless_a_history_node_is_due():
+    """With no observation, increments are composed into one predict; with record_dt = 2 s
+    the history gets nodes at 2 s and 4 s and at the end (5 s), and the final pose is the
+    same either way (composition is exact for the mean)."""
+    poses = []
+    for record_dt, n_pred in ((100.0, 1), (2.0, 3)):
+        est = _Recorder()
+        lag = LaggedSlam(est, record_dt=record_dt)
+        for k in range(1, 6):
+            lag.add_odometry(Odometry([1.0, 0, 0.1], np.eye(3) * 1e-4, t=float(k)))
+        lag.release(5.0)
+        assert [c[0] for c in est.calls] == ["predict"] * n_pred and lag.t_done == 5.0
+        poses.append(est.x)
+    assert np.allclose(poses[0], poses[1])
+    assert [r.t for r in lag.history] == [2.0, 4.0, 5.0]
 
 
 def test_landmark_metrics_known_case():
