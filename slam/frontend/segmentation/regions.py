@@ -258,13 +258,14 @@ def extract_regions(mask: np.ndarray) -> tuple[tuple[Region, ...], np.ndarray]:
     rows, cols = np.nonzero(labels)
     lab = labels[rows, cols]
     area = stats[:, cv2.CC_STAT_AREA].astype(np.float64)
+    area_div = np.maximum(area, 1.0)  # label 0 (background) may be empty
     cx = centroids[:, 0]
     cy = centroids[:, 1]
     dx = cols - cx[lab]
     dy = rows - cy[lab]
-    sxx = np.bincount(lab, weights=dx * dx, minlength=n) / area
-    syy = np.bincount(lab, weights=dy * dy, minlength=n) / area
-    sxy = np.bincount(lab, weights=dx * dy, minlength=n) / area
+    sxx = np.bincount(lab, weights=dx * dx, minlength=n) / area_div
+    syy = np.bincount(lab, weights=dy * dy, minlength=n) / area_div
+    sxy = np.bincount(lab, weights=dx * dy, minlength=n) / area_div
     half_tr = 0.5 * (sxx + syy)
     disc = np.sqrt(np.maximum(0.25 * (sxx - syy) ** 2 + sxy**2, 0.0))
     lam1 = half_tr + disc
