@@ -17,8 +17,14 @@ the water. ``max_forward`` stores ½ ρ S C_Lα δ_max in N/(m/s)².
 
 Allocation (``allocate``): least-squares (pseudo-inverse) solution of B_eff f = τ over the
 degrees of freedom the vehicle controls, B_eff the 6×k configuration matrix (columns
-[d; r × d] per channel, fin columns scaled by u_r|u_r|); the channel forces are mapped
-back through the inverse thrust curve to commands and clipped to [−1, 1].
+[d; r × d] per channel, fin columns scaled by u_r|u_r|), with saturation handled by the
+redistributed pseudo-inverse (Bodson 2002, J. Guid. Control Dyn. 25(4)): channels whose
+force exceeds their limit are fixed at the limit and the rest of the demand is solved
+again over the free channels (at most k passes). Channel forces are then mapped back
+through the inverse thrust curve to commands in [−1, 1].
+
+Fin incidence is limited to the stall angle (``FIN_STALL_RAD``): beyond it the lift stops
+growing (the cross-flow drag of the hull takes over).
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 KINDS = ("propeller", "fin")
+FIN_STALL_RAD = 0.35  # incidence beyond which the fin lift saturates (≈ 20°, low aspect ratio)
 
 
 @dataclass(frozen=True)
@@ -150,9 +157,26 @@ class ThrusterBank:
         fin = self.is_fin[lo:hi]
         cols[:, fin] *= speed_sq
         b = cols[dofs]
-        f = np.linalg.pinv(b, rcond=1e-6) @ np.asarray(tau, dtype=float)[dofs]
-        # inverse thrust curve: propellers F = F_max n|n|; fins F = g δ u_r|u_r| (already in cols)
-        u = np.empty(hi - lo)
+        t = np.asarray(tau, dtype=float)[dofs]
+        k = hi - lo
+        # limits per channel: propellers F_fwd / −F_rev (N); fins ±g δ_max, the fin force per
+        # unit u_r|u_r| (the speed factor is in the scaled columns)
+        upper = self.f_fwd[lo:hi].copy()
+        lower = -self.f_rev[lo:hi]
+        f = np.zeros(k)
+        free = np.ones(k, dtype=bool)
+        for _ in range(k):  # redistributed pseudo-inverse
+            resid = t - b[:, ~free] @ f[~free]
+            f[free] = np.linalg.pinv(b[:, free], rcond=1e-6) @ resid
+            over = free & ((f > upper) | (f < lower))
+            if not over.any():
+                break
+            f[over] = np.clip(f[over], lower[over], upper[over])
+            free &= ~over
+            if not free.any():
+                break
+        # inverse thrust curve: propellers F = F_max n|n|; fins F = g δ u_r|u_r| (g in cols)
+        u = np.empty(k)
         prop = ~fin
         fmax = np.where(f[prop] >= 0.0, self.f_fwd[lo:hi][prop], self.f_rev[lo:hi][prop])
         u[prop] = np.sign(f[prop]) * np.sqrt(np.abs(f[prop]) / fmax)

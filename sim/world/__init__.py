@@ -9,7 +9,7 @@ world.vehicles["alister9"].state()
 
 from sim.world.builder import ObjectInfo, VehicleSpec, World, WorldSpec, build_world
 from sim.world.currents import CurrentField, CurrentSpec
-from sim.world.objects import OBJECT_CLASSES, OBJECT_KINDS, ObjectSpec
+from sim.world.objects import OBJECT_CLASSES, OBJECT_KINDS, ObjectSpec, scatter_objects
 from sim.world.seabed import SEABED_KINDS, Seabed, SeabedSpec
 from sim.world.vehicle import VehicleHandle
 from sim.world.vehicles import SWARMS_VEHICLES, VEHICLE_KINDS, VEHICLES
@@ -35,5 +35,6 @@ __all__ = [
     "WorldSpec",
     "build_world",
     "mackenzie_sound_speed",
+    "scatter_objects",
     "seawater_density",
 ]

@@ -155,6 +155,13 @@ class World:
     def timestep(self) -> float:
         return float(self.model.opt.timestep)
 
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(x_min, x_max, y_min, y_max) of the seabed, world m: the horizontal extent of
+        the world (vehicles beyond it have no seabed below)."""
+        sb = self.seabed
+        return float(sb.x[0]), float(sb.x[-1]), float(sb.y[0]), float(sb.y[-1])
+
     def _apply_forces(self) -> None:
         d = self.data
         bid = self._bid

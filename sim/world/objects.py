@@ -243,3 +243,50 @@ MANNEQUIN_JOINTS = {
     "thigh_r": ((1, 0, 0), (-0.4, 0.0)),
     "shin_r": ((0, 1, 0), (0.0, 1.2)),
 }
+
+
+def scatter_objects(
+    rng: np.random.Generator,
+    n: int,
+    area: tuple[float, float, float, float],
+    kinds: tuple[str, ...] = OBJECT_KINDS,
+    min_spacing: float = 5.0,
+    max_burial: float = 0.3,
+) -> tuple[ObjectSpec, ...]:
+    """n seeded objects in area (x_min, x_max, y_min, y_max), m: kinds drawn uniformly,
+    random heading, burial in [0, max_burial], shape seeds, centres at least
+    ``min_spacing`` m apart (a batch of candidates is drawn and greedily thinned; raises
+    ValueError when the area cannot hold n objects at that spacing)."""
+    if int(n) < 0:
+        raise ValueError(f"n must be >= 0, got {n!r}")
+    x0, x1, y0, y1 = (float(v) for v in area)
+    if not (x1 > x0 and y1 > y0):
+        raise ValueError(f"area must be (x_min, x_max, y_min, y_max) with min < max, got {area!r}")
+    bad = [k for k in kinds if k not in OBJECT_CLASSES]
+    if bad or not kinds:
+        raise ValueError(f"kinds must be a non-empty subset of {OBJECT_KINDS}, got {kinds!r}")
+    if not 0.0 <= max_burial <= 0.9:
+        raise ValueError(f"max_burial must be in [0, 0.9], got {max_burial!r}")
+    cand = rng.uniform([x0, y0], [x1, y1], size=(max(50 * int(n), 100), 2))
+    keep: list[np.ndarray] = []
+    for p in cand:  # build time only
+        if len(keep) == n:
+            break
+        if not keep or np.min(np.linalg.norm(np.array(keep) - p, axis=1)) >= min_spacing:
+            keep.append(p)
+    if len(keep) < n:
+        raise ValueError(
+            f"area {area!r} holds only {len(keep)} objects at min_spacing {min_spacing} m, asked for {n}"
+        )
+    out = []
+    for p in keep:
+        out.append(
+            ObjectSpec(
+                kind=str(rng.choice(kinds)),
+                position_xy=(float(p[0]), float(p[1])),
+                yaw_deg=float(rng.uniform(0.0, 360.0)),
+                burial=float(rng.uniform(0.0, max_burial)),
+                seed=int(rng.integers(0, 2**31 - 1)),
+            )
+        )
+    return tuple(out)

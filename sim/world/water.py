@@ -121,6 +121,12 @@ class Water:
             **kw,
         )
 
+    @property
+    def depth(self) -> float:
+        """Depth of the world z = 0 datum below the sea surface, m (= surface_z); a point at
+        world z lies at depth ``depth - z`` (the sonar's WaterLike protocol)."""
+        return float(self.surface_z)
+
     def sound_speed_at(self, depth_m) -> np.ndarray | float:
         """Mackenzie sound speed at the given depth(s) below the surface, m/s."""
         return mackenzie_sound_speed(self.temperature_c, self.salinity_psu, depth_m)

@@ -89,3 +89,29 @@ def test_tau_with_nan_is_rejected():
     w = build_world(WorldSpec(seabed=SMALL, vehicles=("saga",)))
     with pytest.raises(ValueError, match="tau"):
         w.vehicles["saga"].apply_wrench_demand([0, 0, np.nan, 0, 0, 0])
+
+
+def test_saturated_allocation_redistributes_to_free_thrusters():
+    """Redistributed pseudo-inverse: a yaw + surge demand beyond one channel's limit keeps
+    every command in [−1, 1] and still delivers more of the demand than plain clipping
+    of the unconstrained solution (second computation: B·F(u) for both)."""
+    w = build_world(WorldSpec(seabed=SMALL, vehicles=(VehicleSpec("naiad", position=(0, 0, -20)),)))
+    v = w.vehicles["naiad"]
+    bank = w.thrusters
+    cols = bank.columns.T
+    mask = v.model.dof_mask
+    tau = np.array([120.0, 0.0, 0.0, 0.0, 0.0, 15.0])
+    v.apply_wrench_demand(tau)
+    u = bank.command.copy()
+    assert np.all(np.abs(u) <= 1.0)
+
+    def wrench(cmd):
+        return cols @ (np.where(cmd >= 0, bank.f_fwd, bank.f_rev) * cmd * np.abs(cmd))
+
+    f_ls = np.linalg.pinv(cols[mask]) @ tau[mask]
+    u_clip = np.clip(
+        np.sign(f_ls) * np.sqrt(np.abs(f_ls) / np.where(f_ls >= 0, bank.f_fwd, bank.f_rev)), -1, 1
+    )
+    err_redist = np.linalg.norm((wrench(u) - tau)[mask])
+    err_clip = np.linalg.norm((wrench(u_clip) - tau)[mask])
+    assert err_redist < err_clip

@@ -298,3 +298,30 @@ def test_divergence_raises_instead_of_silent_nan(tmp_path, monkeypatch):
     w.vehicles["saga"].set_external_wrench([1e300, 0, 0, 0, 0, 0])
     with pytest.raises(FloatingPointError, match="diverged"):
         w.step(20)
+
+
+def test_scatter_objects_is_seeded_spaced_and_buildable():
+    from sim.world import scatter_objects
+
+    a = scatter_objects(np.random.default_rng(5), 12, (-18, 18, -13, 13), min_spacing=4.0)
+    b = scatter_objects(np.random.default_rng(5), 12, (-18, 18, -13, 13), min_spacing=4.0)
+    assert a == b and len(a) == 12
+    p = np.array([o.position_xy for o in a])
+    dist = np.linalg.norm(p[:, None] - p[None], axis=-1) + np.eye(len(p)) * 1e9
+    assert dist.min() >= 4.0
+    w = build_world(WorldSpec(seabed=small(), objects=a))
+    assert len(w.objects) == 12
+    with pytest.raises(ValueError, match="holds only"):
+        scatter_objects(np.random.default_rng(0), 100, (0, 5, 0, 5), min_spacing=3.0)
+
+
+def test_water_depth_property_is_datum_depth_for_the_sonar():
+    from sim.world import Water
+
+    assert Water().depth == 0.0
+    assert Water(surface_z=92.0).depth == 92.0
+
+
+def test_world_bounds_are_the_seabed_extent():
+    w = build_world(WorldSpec(seabed=small()))
+    assert w.bounds == (-20.0, 20.0, -15.0, 15.0)
