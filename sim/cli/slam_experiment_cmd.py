@@ -14,7 +14,7 @@ import sys
 HELP = "run the reference's simulated SLAM experiments (dense-loop, line, segmentation-loop)"
 
 _EXPERIMENTS = ("dense-loop", "line", "segmentation-loop")
-_FILTERS = ("aekf", "fastslam2", "isam2", "aekf-submap")
+_FILTERS = ("aekf", "fastslam2", "isam2", "aekf-submap", "aekf-robocentric")
 
 
 def _param(text: str) -> tuple[str, object]:

@@ -18,6 +18,7 @@ ESTIMATORS: dict[str, str] = {
     "fastslam2": "fastslam2",
     "isam2": "isam2",
     "aekf-submap": "aekf_submap",  # beyond the contract: sub-mapping AEKF for large maps
+    "aekf-robocentric": "aekf_robocentric",  # beyond the contract: robocentric AEKF
 }
 
 

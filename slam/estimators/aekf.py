@@ -53,6 +53,7 @@ __all__ = [
     "observe",
     "predict",
     "remove_landmarks",
+    "select_associations",
     "update",
 ]
 
@@ -487,6 +488,33 @@ def associate(
     if method not in ("ml", "nn"):
         raise ValueError(f"method must be 'ml' or 'nn', got {method!r}")
     nis, nd = association_scores(x, P, z, R, x_lin=x_lin)
+    return select_associations(
+        nis,
+        nd,
+        reject_gate=reject_gate,
+        augment_gate=augment_gate,
+        method=method,
+        exclusive=exclusive,
+        return_scores=return_scores,
+        unambiguous_gate=unambiguous_gate,
+    )
+
+
+def select_associations(
+    nis,
+    nd,
+    *,
+    reject_gate: float = 4.0,
+    augment_gate: float = 25.0,
+    method: str = "ml",
+    exclusive: bool = True,
+    return_scores: bool = False,
+    unambiguous_gate: float | None = None,
+):
+    """The decision part of :func:`associate` from score matrices ``nis (k, n)`` and
+    ``nd (k, n)`` (shared by the robocentric filter)."""
+    if method not in ("ml", "nn"):
+        raise ValueError(f"method must be 'ml' or 'nn', got {method!r}")
     k, n = nis.shape
     idx = np.full(k, -1, dtype=np.intp)
     best_nis = np.full(k, np.nan)

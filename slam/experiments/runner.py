@@ -201,7 +201,7 @@ def _run_once(spec, filter_name, seed, estimator_params, sim_run) -> RunResult:
     labels = getattr(est, "labels", None)
     if labels is not None and np.asarray(labels).shape != (lm_est.shape[0],):
         labels = None
-    if labels is not None and filter_name not in ("aekf", "aekf-submap"):
+    if labels is not None and filter_name not in ("aekf", "aekf-submap", "aekf-robocentric"):
         labels = None
     le = landmark_errors(lm_est, run.landmarks, est_labels=labels)
     seen = np.unique(run.obs_label).size
