@@ -98,6 +98,10 @@ class ForwardLookingSonar:
         bv = beam_pattern(E + tilt, vfov, c.beam_pattern, c.sidelobe_db) ** 2
         self._gain = (bv * ce * deps * dbeta).reshape(-1) * self.mount.sl * self.mount.mu
         self._rows = np.repeat(np.arange(nb, dtype=np.int64), nr)
+        j = np.arange(nb * nr).reshape(nb, nr)
+        prev = np.where(j % nr > 0, j - 1, -1).reshape(-1)
+        nxt = np.where(j % nr < nr - 1, j + 1, -1).reshape(-1)
+        self._neighbours = (prev, nxt)
 
     @property
     def rays_per_frame(self) -> int:
@@ -128,6 +132,7 @@ class ForwardLookingSonar:
             m.alpha_db_m,
             m.specular,
             1.0,
+            self._neighbours,
         )
         r = np.broadcast_to(self.ranges[None, :], echo.mean.shape).reshape(-1)
         img = finish_samples(echo.mean.reshape(-1), r, m.alpha_db_m, c.acoustic, rng).reshape(

@@ -112,6 +112,10 @@ class MSISSonar:
         self._dE = dE
         self.head_angle = np.deg2rad(c.sector_center_deg - c.sector_deg / 2.0)
         self._zero_rows = np.zeros(self._az.size, np.int64)
+        j = np.arange(nh * nv).reshape(nh, nv)
+        prev = np.where(j % nv > 0, j - 1, -1).reshape(-1)
+        nxt = np.where(j % nv < nv - 1, j + 1, -1).reshape(-1)
+        self._neighbours = (prev, nxt)
 
     def head_angles(self) -> np.ndarray:
         """Head angles (rad) of one scan's pings, starting at the sector's start."""
@@ -146,6 +150,7 @@ class MSISSonar:
             m.alpha_db_m,
             m.specular,
             1.0,
+            self._neighbours,
         )
         inten = finish_samples(echo.mean[0], self.ranges, m.alpha_db_m, c.acoustic, rng)
         return MSISPing(
