@@ -1,7 +1,7 @@
 """Fossen-style 6-DOF hydrodynamics that MuJoCo does not provide, vectorized over vehicles.
 
-Model (Fossen 2011, *Handbook of Marine Craft Hydrodynamics and Motion Control*, eq. 7.190
-with the current acting through the relative velocity ν_r = ν − ν_c):
+Model (Fossen 2011, *Handbook of Marine Craft Hydrodynamics and Motion Control*, the 6-DOF
+equations of motion with the current acting through the relative velocity ν_r = ν − ν_c):
 
     M_RB ν̇ + C_RB(ν) ν + M_A ν̇_r + C_A(ν_r) ν_r + D(ν_r) ν_r + g(η) = τ
 
@@ -14,10 +14,10 @@ symmetric about two planes to the accuracy of the coefficients used).
   r_B (body frame) — the righting moment r_B × f_B. Buoyancy falls linearly with the
   submerged fraction of the vehicle height when the vehicle breaks the surface.
 - ``D(ν_r) ν_r = (D_l + D_q |ν_r|) ν_r`` (linear + quadratic, element-wise).
-- ``C_A(ν_r) ν_r`` = [ω × (A_v v_r); v_r × (A_v v_r) + ω × (A_ω ω)] (Fossen eq. 6.43 for a
+- ``C_A(ν_r) ν_r`` = [ω × (A_v v_r); v_r × (A_v v_r) + ω × (A_ω ω)] (Fossen 2011, ch. 6, for a
   diagonal M_A), which carries the Munk moment.
 - Current: irrotational and, locally, constant in the world frame, so in the body frame
-  ν̇_c = −ω × v_c (Fossen §10.3); the M_A ν̇_c term is included. The temporal and
+  ν̇_c = −ω × v_c (Fossen 2011, ocean-current chapter); the M_A ν̇_c term is included. The temporal and
   spatial derivative of a varying current field is not (its scales are ≥ tens of metres
   and minutes: the omitted Froude–Krylov force is < 1 % of the damping there).
 
@@ -60,7 +60,7 @@ def ellipsoid_added_mass(a: float, b: float, c: float, rho: float) -> np.ndarray
     """Added mass diag [A11, A22, A33, A44, A55, A66] of a solid ellipsoid, kg and kg·m².
 
     Semi-axes a, b, c along body x, y, z (m), fluid density rho (kg/m³). Lamb (1932,
-    *Hydrodynamics* §114–115) / Imlay (1961, DTMB report 1528) for an ellipsoid in
+    *Hydrodynamics*, ch. V) / Imlay (1961, DTMB report 1528) for an ellipsoid in
     unbounded ideal fluid:
         α0 = a b c ∫ dλ / ((a²+λ) Δ),  Δ = √((a²+λ)(b²+λ)(c²+λ))  (β0, γ0 cyclically),
         A11 = α0 / (2 − α0) · ρV,
@@ -103,7 +103,7 @@ def strip_theory_quadratic_damping(
 
     Translation: X = ½ ρ Cd_x A_x u|u| with A_x = W·H (box) or π/4·W·H (ellipse),
     A_y = L·H, A_z = L·W. Rotation by strip theory (cross-flow drag integrated along the
-    body, Fossen 2011 §6.4.3): a strip at lever x moving at r·x gives
+    body, the cross-flow principle in Fossen 2011, ch. 6): a strip at lever x moving at r·x gives
     N = ½ ρ Cd_y H ∫|x|³ dx = ½ ρ Cd_y H L⁴/32, likewise M with Cd_z W L⁴/32 and
     K = ½ ρ (Cd_z L W⁴ + Cd_y L H⁴)/32.
     """

@@ -3,7 +3,7 @@
 Every actuator channel of every vehicle in a world lives in one ``ThrusterBank`` (flat
 arrays), so a physics step costs a handful of numpy operations for all vehicles.
 
-Propeller channel (Fossen 2011 §6.7; Yoerger, Cooke & Slotine 1990): the normalized
+Propeller channel (Fossen 2011, propulsion chapter; Yoerger, Cooke & Slotine 1990): the normalized
 command u ∈ [−1, 1] (saturated by clipping) sets the demanded normalized shaft speed;
 the actual speed n follows it with a first-order lag of time constant T (discretized
 exactly for a command held over the step: n ← u + (n − u) e^(−dt/T)), and thrust is the

@@ -39,7 +39,7 @@ def test_sphere_added_mass_is_half_displaced_mass_lamb():
 
 @pytest.mark.parametrize("ratio", [2.0, 5.0, 9.09])
 def test_prolate_spheroid_matches_lamb_closed_form_k_factors(ratio):
-    """Lamb (1932) §373: closed forms in the eccentricity e of a prolate spheroid."""
+    """Lamb (1932), *Hydrodynamics*, ch. V: closed forms in the eccentricity e of a prolate spheroid."""
     b = 0.11
     a = ratio * b
     e = np.sqrt(1 - (b / a) ** 2)
