@@ -68,7 +68,12 @@ class VehicleHandle:
         return r.reshape(3, 3), q[:3].copy()
 
     def state(self) -> VehicleState:
-        """True state now (see sim.state.VehicleState for units and frames)."""
+        """True state now (see sim.state.VehicleState for units and frames).
+
+        ``acceleration_body`` is MuJoCo's qacc of the last step (contacts included),
+        expressed in the current body frame; ``altitude`` is a downward ray from the CG to
+        the first geom of groups 0–2 that is not the vehicle itself (seabed, object or
+        another vehicle), falling back to the seabed grid when the ray misses."""
         w = self._world
         d = w.data
         rot, pos = self._rot_pos()
