@@ -33,7 +33,7 @@ import numpy as np
 from sim.runner.lagged import LaggedSlam
 from sim.runner.metrics import detection_metrics, landmark_metrics, pose_metrics
 from sim.runner.output import RunDirectory
-from sim.runner.sidescan import PingRecord, SidescanProcessor, make_sss_prepare
+from sim.runner.sidescan import PingRecord, SidescanProcessor, make_fls_prepare, make_sss_prepare
 from sim.scenario.schema import Scenario, SonarSpec, VehicleSpec
 from slam.types import Odometry
 
@@ -528,8 +528,11 @@ class ScenarioRun:
         fe = v.spec.frontend
         if fe.method == "none":
             return
-        labels, regions = _segmenter(fe.method, fe.preset, True)(frame.image)
         cfg = s.sonar.config
+        img = make_fls_prepare(cfg.acoustic.log_compression, cfg.acoustic.dynamic_range_db)(
+            frame.image
+        )
+        labels, regions = _segmenter(fe.method, fe.preset, True)(img)
         geom = FLSGeometry(
             range_max=float(cfg.max_range),
             n_bins=cfg.n_bins,

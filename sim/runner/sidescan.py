@@ -333,3 +333,28 @@ def make_sss_prepare(log_compressed: bool, dynamic_range_db: float, looks: int =
         return (10.0 * np.log10(np.clip(m, 0.1, 100.0))).astype(np.float32)
 
     return prepare
+
+
+def make_fls_prepare(
+    log_compressed: bool, dynamic_range_db: float, looks: int = 3, floor: float = 0.02
+):
+    """Conditioning of an FLS polar frame (bins, beams) before segmentation: linear
+    intensity, each range row divided by its median over the beams that have a return
+    (the FLS analogue of MIRA's range normalization), cells without a return (display
+    value <= ``floor``) set to the seabed level 1, ``looks`` x ``looks`` averaging, dB."""
+    import cv2
+
+    def prepare(img: np.ndarray) -> np.ndarray:
+        x = img.astype(np.float64)
+        lin = np.power(10.0, x * (dynamic_range_db / 10.0)) if log_compressed else x
+        valid = x > (floor if log_compressed else floor * max(float(x.max()), 1e-30))
+        masked = np.where(valid, lin, np.nan)
+        with np.errstate(all="ignore"):
+            med = np.nanmedian(masked, axis=1)
+        med = np.where(np.isfinite(med) & (med > 0), med, 1.0)
+        m = np.where(valid, lin / med[:, None], 1.0).astype(np.float32)
+        if looks > 1:
+            m = cv2.blur(m, (looks, looks))
+        return (10.0 * np.log10(np.clip(m, 0.1, 100.0))).astype(np.float32)
+
+    return prepare
