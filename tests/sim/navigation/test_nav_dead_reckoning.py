@@ -94,8 +94,10 @@ def suite_cfg(dvl_std=0.01, gyro_density=1e-3, dropout=0.0, bias0=0.0):
 
 
 def test_straight_line_covariance_closed_form():
-    """Straight line, DVL only: n pings of hold h with white noise σ give var(dx) =
-    var(dy) = n σ² h², zero correlation with dphi when there is no gyro noise."""
+    """Straight line, DVL only: n pings at spacing h, cut at n h. Trapezoid between
+    pings plus the held last ping give the pings weights h/2, h, …, h, 3h/2, so
+    var(dx) = var(dy) = σ² h² (n − 2 + 1/4 + 9/4) = σ² h² (n + 1/2); no correlation
+    with dphi without gyro noise."""
     dr = DeadReckoner(DeadReckoningConfig(dvl_velocity_std=0.02, gyro_sample_std=0.0))
     from sim.navigation import DVLMeasurement
 
@@ -106,13 +108,16 @@ def test_straight_line_covariance_closed_form():
         )
     inc = dr.increment(n * h)
     np.testing.assert_allclose(inc.delta, [2.0 * n * h, 0, 0], atol=1e-12)
-    np.testing.assert_allclose(np.diag(inc.cov), [n * 0.02**2 * h**2] * 2 + [0.0], rtol=1e-12)
+    np.testing.assert_allclose(
+        np.diag(inc.cov), [(n + 0.5) * 0.02**2 * h**2] * 2 + [0.0], rtol=1e-12
+    )
 
 
 def test_gyro_only_heading_variance_is_angle_random_walk():
-    """ARW definition: after T seconds the heading std is N·√T (N = noise density); the
-    lateral position variance of a straight run of speed u is u² N² T³/3 (integrated
-    random walk), up to the zero-order-hold discretisation O(h/T)."""
+    """ARW definition: after T seconds the heading std is N·√T (N = noise density), up
+    to the discretisation (trapezoid weights as in the DVL case: var = N² T (1 + 1/(2n)));
+    the lateral position variance of a straight run of speed u is u² N² T³/3
+    (integrated random walk), to O(h/T)."""
     from sim.navigation import DVLMeasurement, IMUMeasurement
 
     N, rate, T, u = 1e-3, 50.0, 20.0, 2.0
@@ -123,7 +128,8 @@ def test_gyro_only_heading_variance_is_angle_random_walk():
     for k in range(int(T * rate)):
         dr.add(IMUMeasurement(t=k / rate, gyro=np.zeros(3), specific_force=np.zeros(3)))
     inc = dr.increment(T)
-    assert inc.cov[2, 2] == pytest.approx(N**2 * T, rel=1e-9)
+    n = round(T * rate)
+    assert inc.cov[2, 2] == pytest.approx(N**2 * T * (1 + 0.5 / n), rel=1e-9)
     assert inc.cov[1, 1] == pytest.approx(u**2 * N**2 * T**3 / 3, rel=0.01)
 
 
