@@ -45,10 +45,15 @@ class SonarScene:
 
 
 def seabed_grid(
-    size: float, cells: int, relief: float = 0.0, seed: int = 0
+    size: float,
+    cells: int,
+    relief: float = 0.0,
+    seed: int = 0,
+    ripples: tuple[float, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Seabed triangles over a square of side ``size`` m centred on the origin, z = 0 mean,
-    ``cells × cells`` quads (2·cells² triangles), optional smooth relief amplitude (m).
+    ``cells × cells`` quads (2·cells² triangles), optional smooth relief amplitude (m) and
+    sand ripples ``(height, wavelength)`` m with crests along y.
 
     MuJoCo 4.0's ray–mesh test is not watertight: a ray passing exactly through a shared
     triangle edge can miss both triangles (Embree does not). A fan in the vertical plane
@@ -63,6 +68,8 @@ def seabed_grid(
             k = rng.uniform(0.02, 0.1, 2)
             ph = rng.uniform(0, 2 * np.pi, 2)
             Z += relief / 6 * np.sin(k[0] * X + ph[0]) * np.cos(k[1] * Y + ph[1])
+    if ripples is not None:
+        Z += 0.5 * ripples[0] * np.sin(2 * np.pi * X / ripples[1])
     V = np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1)
     i = np.arange((cells + 1) ** 2).reshape(cells + 1, cells + 1)
     a, b, c, d = i[:-1, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, :-1].ravel(), i[1:, 1:].ravel()
@@ -77,6 +84,7 @@ def build_scene(
     seabed_size: float = 200.0,
     seabed_cells: int = 40,
     relief: float = 0.0,
+    ripples: tuple[float, float] | None = None,
     vehicle_pos: tuple[float, float] = (0.0, 0.0),
     vehicle_yaw: float = 0.0,
     seabed_reflectivity: float = 1.0,
@@ -84,7 +92,7 @@ def build_scene(
     zero_gravity: bool = True,
 ) -> SonarScene:
     """Build a scene with the vehicle at ``altitude`` m above the z = 0 seabed."""
-    V, F = seabed_grid(seabed_size, seabed_cells, relief)
+    V, F = seabed_grid(seabed_size, seabed_cells, relief, ripples=ripples)
     vtx = " ".join(f"{v:.6g}" for v in V.ravel())
     fcs = " ".join(str(int(f)) for f in F.ravel())
     body = []

@@ -113,3 +113,25 @@ def test_fls_bad_config():
         preset("blueview_p900_90", n_bins=100000)
     with pytest.raises(ValueError, match="horizontal_fov_deg"):
         preset("blueview_p900_90", horizontal_fov_deg=200.0)
+
+
+def test_fls_seabed_has_no_coverage_gaps_over_ripples():
+    """Continuity: over a rippled seabed (10 cm ripples, 1.5 m wavelength, far finer than the
+    16-ray vertical fan's ground spacing) every range cell of the central beams between the
+    first bottom return and the far edge of the seabed band is insonified (no false shadows)."""
+    sc = build_scene(altitude=5.0, seabed_size=80.0, seabed_cells=320, ripples=(0.1, 1.5))
+    son = ForwardLookingSonar(
+        preset("blueview_p900_90", max_range=35.0, n_bins=350, n_beams=32, rays_per_beam=16),
+        sc.model,
+        sc.data,
+        sc.sites["fls"],
+        sc.geom_object_id,
+        sc.geom_reflectivity,
+        sc.water,
+    )
+    f = son.frame(sc.data, np.random.default_rng(0))
+    for beam in range(12, 20):
+        col = f.labels[:, beam]
+        seen = np.flatnonzero(col == 0)
+        assert seen.size > 50
+        assert np.all(col[seen[0] : seen[-1] + 1] == 0)
