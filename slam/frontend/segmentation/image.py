@@ -10,9 +10,11 @@ Rules (documented results, never silent):
   :func:`load_gray8` or ``cv2.cvtColor`` for colour images), empty arrays and arrays with
   NaN/inf raise ``ValueError`` naming the field.
 
-File loading uses ``cv2.imread(..., IMREAD_UNCHANGED)`` and converts colour (BGR/BGRA, or
-grey stored as three equal channels) with ``cv2.cvtColor`` and 16-bit data with the same
-linear stretch. (Local loader: ``slam.io.images`` did not exist when this was written.)
+File loading (:func:`load_gray8`) uses the project reader ``slam.io.images.read_image``
+(``cv2.imread(..., IMREAD_UNCHANGED)``; grey-as-colour files read as grey, true colour
+converted to luminance): 8-bit files keep their levels exactly, 16-bit files get the same
+linear ``[min, max]`` stretch. Masks (:func:`load_mask`) are read with OpenCV directly and
+thresholded at > 127 (RGBA masks: the colour channels, alpha ignored).
 """
 
 from __future__ import annotations
@@ -97,8 +99,14 @@ def _read(path: str | Path) -> np.ndarray:
 
 
 def load_gray8(path: str | Path) -> np.ndarray:
-    """Read an image file (PNG/JPG/TIFF, 8/16-bit, grey or colour) as 2-D ``uint8`` grey."""
-    return as_gray8(_read(path), name=str(path))
+    """Read an image file (PNG/JPG/TIFF, 8/16-bit, grey or colour) as 2-D ``uint8`` grey:
+    8-bit levels unchanged, 16-bit stretched from [min, max] to [0, 255]."""
+    from slam.io.images import read_image
+
+    img = read_image(path, color="luminance")
+    if img.bit_depth == 8:
+        return np.ascontiguousarray(img.to_uint8())
+    return as_gray8(img.image, name=str(path))
 
 
 def load_mask(path: str | Path, shape: tuple[int, int] | None = None) -> np.ndarray:

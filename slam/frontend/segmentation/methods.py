@@ -85,6 +85,7 @@ class SegmentationResult:
     landmarks        : the regions kept by the region filter (= ``regions`` without one).
     timing_s         : seconds per stage ("threshold", "canny", "morphology", "regions",
                        "filter") and "total" (excluding input conversion).
+    gray8            : (H, W) uint8, the input as 8-bit grey levels (before the power law).
     """
 
     method: str
@@ -99,6 +100,7 @@ class SegmentationResult:
     regions: tuple[Region, ...]
     landmarks: tuple[Region, ...]
     timing_s: dict[str, float]
+    gray8: np.ndarray = field(repr=False)
 
     @property
     def threshold_normalized(self) -> float:
@@ -198,6 +200,7 @@ def _resolve_params(params: SegmentationParams | str | None, shape) -> Segmentat
 
 
 def _finish(
+    gray8: np.ndarray,
     method: str,
     params: SegmentationParams,
     t: float,
@@ -230,6 +233,7 @@ def _finish(
         regions=regions,
         landmarks=landmarks,
         timing_s=timing,
+        gray8=gray8,
     )
 
 
@@ -248,6 +252,7 @@ def _constant_result(method, params, gray8, level: int, region_filter) -> Segmen
         regions=(),
         landmarks=(),
         timing_s={"total": 0.0},
+        gray8=gray8,
     )
 
 
@@ -272,7 +277,7 @@ def improved_otsu(
     y = power_law(gray8, p.power_c, p.power_r)
     lo, hi = int(y.min()), int(y.max())
     if lo == hi:
-        return _constant_result("improved-otsu", p, y, lo, region_filter)
+        return _constant_result("improved-otsu", p, gray8, lo, region_filter)
     t = otsu_threshold(y)
     b = y > t
     t1 = time.perf_counter()
@@ -288,7 +293,7 @@ def improved_otsu(
     t3 = time.perf_counter()
     timing = {"threshold": (t1 - t_start) + (t3 - t2), "canny": t2 - t1}
     return _finish(
-        "improved-otsu", p, t, t_star, retriggered, n_a, b, region_filter, timing, t_start
+        gray8, "improved-otsu", p, t, t_star, retriggered, n_a, b, region_filter, timing, t_start
     )
 
 
@@ -337,4 +342,4 @@ def segment(
     timing = {"threshold": time.perf_counter() - t_start, "canny": 0.0}
     if not math.isfinite(t):
         raise ValueError(f"method {method!r} produced a non-finite threshold {t!r}")
-    return _finish(method, p, t, t, False, -1, b, region_filter, timing, t_start)
+    return _finish(gray8, method, p, t, t, False, -1, b, region_filter, timing, t_start)

@@ -20,11 +20,13 @@ explicit:
   inside a true object's mask, or when it is within ``tol_px`` of a true object's
   centroid; TP counts such detections, FP the others;
 * FN = true objects matched by no detection; recall = matched objects / objects;
-* **candidates** — the non-object centroids of the real non-object row: by default (via
-  :func:`score_result`) the 8-connected components of the method's raw thresholded image
-  with at least ``a`` pixels (the blobs that survive step 1 of Algorithm 2, i.e. could
-  become landmarks) that do not match a true object; TN = candidates − FP, at least 0.
-  So FPR = the fraction of background blobs that end up reported as landmarks.
+* **candidates** — the non-object centroids of the real non-object row. By default (via
+  :func:`score_result`) one method-independent pool per image: the 8-connected components
+  with at least ``a`` pixels of the *traditional Otsu* segmentation of the same 8-bit
+  image (the bright blobs a plain threshold offers as landmark candidates) that do not
+  match a true object. TN = candidates − FP, at least 0, so FPR = FP / max(candidates,
+  FP): the fraction of background blobs reported as landmarks. Every method is scored
+  against the same pool.
 
 Ratios whose denominator is zero are ``None`` (never NaN). Aggregates over many images
 sum the counts first (micro average).
@@ -39,12 +41,14 @@ import cv2
 import numpy as np
 
 from .image import as_mask
+from .otsu import otsu_threshold
 from .regions import Region
 
 __all__ = [
     "DetectionScore",
     "candidate_centroids",
     "match_centroids",
+    "otsu_candidates",
     "score_detections",
     "score_result",
     "sum_scores",
@@ -253,6 +257,14 @@ def candidate_centroids(binary: np.ndarray, a_px: int) -> np.ndarray:
     return cent[keep]
 
 
+def otsu_candidates(gray8: np.ndarray, a_px: int) -> np.ndarray:
+    """The default candidate pool: (m, 2) centroids of the components with >= ``a_px``
+    pixels of the traditional Otsu segmentation of ``gray8`` (none for a constant image)."""
+    if int(gray8.min()) == int(gray8.max()):
+        return np.zeros((0, 2))
+    return candidate_centroids(gray8 > otsu_threshold(gray8), a_px)
+
+
 def score_result(
     result,
     truth_mask: np.ndarray,
@@ -262,13 +274,13 @@ def score_result(
     merge_components: bool = False,
 ) -> DetectionScore:
     """Score a :class:`~.methods.SegmentationResult`: detections = its landmarks,
-    candidates = components of its raw threshold result with >= ``a`` pixels."""
+    candidates = :func:`otsu_candidates` of its input image with its ``a``."""
     truth = as_mask(truth_mask, shape=result.mask.shape, name="truth_mask")
     return score_detections(
         result.landmarks,
         truth,
         tol_px=tol_px,
-        candidates=candidate_centroids(result.binary, result.params.a_px),
+        candidates=otsu_candidates(result.gray8, result.params.a_px),
         min_object_px=min_object_px,
         merge_components=merge_components,
     )

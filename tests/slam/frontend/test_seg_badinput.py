@@ -125,14 +125,26 @@ def test_tiny_images_do_not_crash():
 
 
 def test_load_errors(tmp_path):
-    with pytest.raises(ValueError, match="does not exist"):
+    with pytest.raises(ValueError, match="does not exist|not a file"):
         load_gray8(tmp_path / "missing.png")
     bad = tmp_path / "bad.png"
     bad.write_bytes(b"not a png")
-    with pytest.raises(ValueError, match="could not be decoded"):
+    with pytest.raises(ValueError, match="decode"):
         load_gray8(bad)
 
 
 def test_mask_shape_mismatch():
     with pytest.raises(ValueError, match="not 2-D"):
         score_detections([[1, 1]], np.zeros((4, 4, 3)))
+
+
+def test_load_16_bit_and_grey_as_colour_files(tmp_path):
+    """A 16-bit PNG of 257 × an 8-bit image loads as that 8-bit image (full-range
+    stretch); a grey image saved as 3 equal channels loads as the grey image."""
+    import cv2
+
+    img8 = np.tile(np.arange(256, dtype=np.uint8), (4, 1))
+    cv2.imwrite(str(tmp_path / "a16.png"), img8.astype(np.uint16) * 257)
+    assert np.array_equal(load_gray8(tmp_path / "a16.png"), img8)
+    cv2.imwrite(str(tmp_path / "rgb.png"), np.dstack([img8, img8, img8]))
+    assert np.array_equal(load_gray8(tmp_path / "rgb.png"), img8)
