@@ -158,7 +158,8 @@ def main(argv: list[str] | None = None) -> int:
         sss_cfg, m, d, sc.sites["sss"], sc.geom_object_id, sc.geom_reflectivity, sc.water
     )
     sss.ping(d, np.random.default_rng(0))
-    _, (d_loc, dd_loc, gain, rows) = sss._fan_cache
+    fan = sss.ray_fan(sss.ping(d, np.random.default_rng(0)).altitude)
+    d_loc, dd_loc, gain, rows = fan.directions, fan.d_directions, fan.gain, fan.rows
     p0, R = sss.mount.pose(d, sc.sites["sss"])
     dirs_w, dd_w = d_loc @ R.T, dd_loc @ R.T
     hits = sss.mount.backend.cast(d, p0, dirs_w, sss.mount.cutoff)
@@ -182,6 +183,8 @@ def main(argv: list[str] | None = None) -> int:
             mt.geom_reflectivity,
             mt.alpha_db_m,
             mt.specular,
+            1.0,
+            fan.neighbours,
         ),
         args.pings,
     )

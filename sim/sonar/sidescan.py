@@ -62,6 +62,19 @@ class SSSPing:
         raise ValueError(f"side = {name!r}; allowed: 'port', 'starboard'")
 
 
+@dataclass(frozen=True)
+class RayFan:
+    """The rays of one SSS ping in the sensor frame: directions (N, 3) unit; d_directions
+    (N, 3) = ∂d/∂θ·Δθ; gain (N,) SL·b²·ΔΩ·μ; rows (N,) 0 port / 1 starboard; neighbours
+    (prev, next) (N,) indices along θ (−1 at the ends)."""
+
+    directions: np.ndarray
+    d_directions: np.ndarray
+    gain: np.ndarray
+    rows: np.ndarray
+    neighbours: tuple[np.ndarray, np.ndarray]
+
+
 class SideScanSonar:
     """Side-scan sonar on one site (both sides) or two sites (port, starboard).
 
@@ -153,6 +166,27 @@ class SideScanSonar:
         e = e[e >= self.theta_lo]
         return 0.5 * (e[1:] + e[:-1]), np.diff(e)
 
+    def ray_fan(self, altitude: float) -> RayFan:
+        """Both sides' rays for a ping at ``altitude`` (m; NaN: no bottom found). The fan
+        depends on the altitude only to a quarter bin, so the last one is reused."""
+        key = round(altitude / (0.25 * self.bin_width)) if np.isfinite(altitude) else None
+        if self._fan_cache is not None and self._fan_cache[0] == key:
+            return self._fan_cache[1]
+        theta, dtheta = self.depression_angles(altitude)
+        parts = [self._fan(theta, dtheta, s) for s in (1.0, -1.0)]
+        d_loc = np.concatenate([parts[0][0], parts[1][0]])
+        nt = theta.size
+        j = np.arange(d_loc.shape[0])
+        fan = RayFan(
+            directions=d_loc,
+            d_directions=np.concatenate([parts[0][1], parts[1][1]]),
+            gain=np.concatenate([parts[0][2], parts[1][2]]),
+            rows=np.repeat(np.array([0, 1], np.int64), parts[0][0].shape[0]),
+            neighbours=(np.where(j % nt > 0, j - 1, -1), np.where(j % nt < nt - 1, j + 1, -1)),
+        )
+        self._fan_cache = (key, fan)
+        return fan
+
     def _fan(self, theta, dtheta, side_sign):
         """Local directions (N, 3), ∂d/∂θ·Δθ (N, 3) and beam gains (N,) of one side."""
         psi = self.psi[:, None]
@@ -175,18 +209,14 @@ class SideScanSonar:
         p_port, R = m.pose(data, m.site_ids[0])
         p_stbd, _ = m.pose(data, m.site_ids[1])
         altitude = self._altitude(data, p_port, R)
-        # the fan only depends on the altitude (to a quarter bin): reuse the last one
-        key = round(altitude / (0.25 * self.bin_width)) if np.isfinite(altitude) else None
-        if self._fan_cache is not None and self._fan_cache[0] == key:
-            d_loc, dd_loc, gain, rows = self._fan_cache[1]
-        else:
-            theta, dtheta = self.depression_angles(altitude)
-            parts = [self._fan(theta, dtheta, s) for s in (1.0, -1.0)]
-            d_loc = np.concatenate([parts[0][0], parts[1][0]])
-            dd_loc = np.concatenate([parts[0][1], parts[1][1]])
-            gain = np.concatenate([parts[0][2], parts[1][2]])
-            rows = np.repeat(np.array([0, 1], np.int64), parts[0][0].shape[0])
-            self._fan_cache = (key, (d_loc, dd_loc, gain, rows))
+        fan = self.ray_fan(altitude)
+        d_loc, dd_loc, gain, rows, nbrs = (
+            fan.directions,
+            fan.d_directions,
+            fan.gain,
+            fan.rows,
+            fan.neighbours,
+        )
         n_side = d_loc.shape[0] // 2
         dirs = d_loc @ R.T
         d_dirs = dd_loc @ R.T
@@ -207,6 +237,8 @@ class SideScanSonar:
                 m.geom_reflectivity,
                 m.alpha_db_m,
                 m.specular,
+                1.0,
+                nbrs,
             )
             mean, labels, pos = echo.mean, echo.labels, echo.hit_position
         else:
@@ -230,6 +262,8 @@ class SideScanSonar:
                         m.geom_reflectivity,
                         m.alpha_db_m,
                         m.specular,
+                        1.0,
+                        tuple(np.where(q[sl] >= 0, q[sl] - k * n_side, -1) for q in nbrs),
                     )
                 )
             mean = np.concatenate([e.mean for e in out])

@@ -353,7 +353,9 @@ def test_every_sample_whose_ray_hit_object_k_carries_k():
     sc = build_scene(altitude=9.0, objects=objs, seabed_cells=20)
     son = _sonar(sc)
     son.ping(sc.data, np.random.default_rng(0))
-    _, (d_loc, dd_loc, gain, rows) = son._fan_cache
+    ping = son.ping(sc.data, np.random.default_rng(0))
+    fan = son.ray_fan(ping.altitude)
+    d_loc, dd_loc, gain, rows = fan.directions, fan.d_directions, fan.gain, fan.rows
     p, R = son.mount.pose(sc.data, sc.sites["sss"])
     dirs, dd = d_loc @ R.T, dd_loc @ R.T
     m = son.mount
@@ -373,6 +375,8 @@ def test_every_sample_whose_ray_hit_object_k_carries_k():
         m.geom_reflectivity,
         m.alpha_db_m,
         m.specular,
+        1.0,
+        fan.neighbours,
     )
     ray_id = np.where(hits.geom >= 0, sc.geom_object_id[np.maximum(hits.geom, 0)], -1)
     cell = np.floor(hits.dist / son.bin_width)
