@@ -185,7 +185,7 @@ def _zero_crossings(t: np.ndarray, x: np.ndarray) -> np.ndarray:
     return t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i])
 
 
-@pytest.mark.parametrize("kind", ["alister9", "naiad", "saga"])
+@pytest.mark.parametrize("kind", KINDS)
 def test_roll_30deg_decays_with_righting_sign_and_period(kind):
     """Released at 30° roll: the righting moment W·BG·sin φ turns it back (sign), the
     amplitude decays, and the period matches (a) the 1-DOF ODE solved by scipy within 2 %
