@@ -53,6 +53,8 @@ class VehicleSpec:
     position      : (3,) start position of the CG, world m.
     rpy_deg       : (roll, pitch, yaw) start attitude, degrees (yaw CCW from east).
     net_buoyancy  : trim, (B − W)/W; 0 = neutrally buoyant, 0.005 = 0.5 % positive.
+    mass          : optional total mass override, kg (payload variants); the inertia is
+                    scaled by the same factor. None = the MJCF's mass (REFERENCE.md).
     """
 
     kind: str
@@ -60,6 +62,7 @@ class VehicleSpec:
     position: tuple[float, float, float] = (0.0, 0.0, -5.0)
     rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
     net_buoyancy: float = 0.0
+    mass: float | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in VEHICLE_KINDS:
@@ -422,6 +425,11 @@ def build_world(spec: WorldSpec) -> World:
         child = mujoco.MjSpec.from_file(str(vm.xml_path))
         for key in list(child.keys):
             child.delete(key)
+        if vs.mass is not None:
+            base = child.body("base")
+            scale = float(vs.mass) / base.mass
+            base.mass = float(vs.mass)
+            base.inertia = np.asarray(base.inertia) * scale
         r, pch, y = np.deg2rad(np.asarray(vs.rpy_deg, dtype=float))
         frame = s.worldbody.add_frame(pos=p, quat=wxyz_from_euler(r, pch, y))
         s.attach(child, prefix=f"{vs.name}/", frame=frame)

@@ -262,6 +262,10 @@ def test_two_vehicles_of_the_same_kind_get_distinct_prefixes():
         (lambda: SeabedSpec(resolution=0.0), r"seabed.resolution"),
         (lambda: SeabedSpec(kind="lava"), r"seabed.kind must be one of"),
         (lambda: WorldSpec(timestep=-0.01), r"timestep must be in"),
+        (
+            lambda: VehicleSpec("saga", mass=-3.0),
+            r"mass must be a positive number of kg .* got -3.0",
+        ),
         (lambda: WorldSpec(vehicles=("saga", "saga")), r"unique"),
     ],
 )
@@ -325,3 +329,11 @@ def test_water_depth_property_is_datum_depth_for_the_sonar():
 def test_world_bounds_are_the_seabed_extent():
     w = build_world(WorldSpec(seabed=small()))
     assert w.bounds == (-20.0, 20.0, -15.0, 15.0)
+
+
+def test_mass_override_scales_mass_inertia_and_trimmed_volume():
+    w = build_world(WorldSpec(seabed=small(), vehicles=(VehicleSpec("saga", mass=12.0),)))
+    h = w.vehicles["saga"].hydro
+    assert w.model.body_subtreemass[w.vehicles["saga"].body_id] == pytest.approx(12.0)
+    np.testing.assert_allclose(h.inertia, np.array([0.1515, 0.2078, 0.2378]) * 1.2)
+    assert h.volume == pytest.approx(12.0 / w.water.density)
