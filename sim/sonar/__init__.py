@@ -22,6 +22,7 @@ from sim.sonar.rays import EmbreeRays, MujocoRays, RayHits, make_backend, static
 from sim.sonar.sidescan import (
     GroundRangeImage,
     Mosaic,
+    RayFan,
     SideScanSonar,
     SideScanWaterfall,
     SSSPing,
@@ -47,6 +48,7 @@ __all__ = [
     "MSISSonar",
     "Mosaic",
     "MujocoRays",
+    "RayFan",
     "RayHits",
     "SSSConfig",
     "SSSPing",
