@@ -185,6 +185,7 @@ class UnderseaEnv(gym.Env):
         if r.ahrs:
             self._nav_meas["rp"] = (float(r.ahrs[-1].roll), float(r.ahrs[-1].pitch))
         inc = self.nav.odometry(st.t)
+        self._last_inc = inc
         self._nav_pose = apply_increment(self._nav_pose, inc.delta)
         self._trail.append(st.position[:2].copy())
         if len(self._trail) > 5000:

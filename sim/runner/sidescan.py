@@ -348,9 +348,10 @@ def make_fls_prepare(
         x = img.astype(np.float64)
         lin = np.power(10.0, x * (dynamic_range_db / 10.0)) if log_compressed else x
         valid = x > (floor if log_compressed else floor * max(float(x.max()), 1e-30))
-        masked = np.where(valid, lin, np.nan)
-        with np.errstate(all="ignore"):
-            med = np.nanmedian(masked, axis=1)
+        med = np.ones(x.shape[0])
+        rows = np.flatnonzero(valid.sum(axis=1) >= 3)
+        if rows.size:
+            med[rows] = np.nanmedian(np.where(valid[rows], lin[rows], np.nan), axis=1)
         med = np.where(np.isfinite(med) & (med > 0), med, 1.0)
         m = np.where(valid, lin / med[:, None], 1.0).astype(np.float32)
         if looks > 1:
