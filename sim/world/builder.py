@@ -81,6 +81,11 @@ class VehicleSpec:
             raise ValueError(
                 f"vehicle {self.name!r} net_buoyancy must be in [-0.5, 0.5], got {self.net_buoyancy!r}"
             )
+        if self.mass is not None and not (np.isfinite(self.mass) and 0.0 < float(self.mass) <= 1e5):
+            raise ValueError(
+                f"vehicle {self.name!r} mass must be a positive number of kg (<= 1e5) or None, "
+                f"got {self.mass!r}"
+            )
 
 
 @dataclass(frozen=True)
