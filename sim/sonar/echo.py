@@ -94,7 +94,7 @@ def form_echo(
     alpha_db_m: float,
     specular: tuple[float, float] | None = None,
     footprint_scale: float = 1.0,
-    neighbours: tuple[np.ndarray, np.ndarray] | None = None,
+    neighbours: np.ndarray | None = None,
 ) -> Echo:
     """Bin ray hits into (rows, bins) mean intensity, labels and hit positions.
 
@@ -105,8 +105,8 @@ def form_echo(
     is spread over ``footprint_scale`` × its footprint (1: footprints tile the range axis;
     2: neighbouring footprints overlap by half, which smooths the steps between coarsely
     spaced rays at the cost of blurring edges by half a footprint).
-    neighbours: optional (prev, next) ray indices (N,) along the sampled fan angle (−1 at
-    the fan's ends). Where a neighbour hit the same labelled surface, the footprint side
+    neighbours: optional bool (N − 1,): True where rays j and j + 1 are consecutive along
+    the sampled fan angle. Where such a neighbour hit the same labelled surface, the footprint side
     towards it reaches the midpoint of the two hits' ranges instead of using the local
     plane: for coarse fans (FLS, MSIS) over textured seabeds (ripples) the local normal
     says little about where the next ray lands.
@@ -144,16 +144,18 @@ def form_echo(
     lab = np.where(hit, geom_object_id[g], -1).astype(np.int32)
     lab[hit & (lab < 0)] = -2
     if neighbours is not None:
-        lo, hi = a.copy(), b.copy()
-        for nb in neighbours:
-            ok = hit & (nb >= 0)
-            j = np.where(ok, nb, 0)
-            ok &= (lab[j] == lab) & hit[j]
-            mid = 0.5 * (fc + fc[j])
-            lo = np.where(ok & (mid < fc), np.minimum(mid, fc - 0.5 * MIN_EXTENT_BINS), lo)
-            hi = np.where(ok & (mid > fc), np.maximum(mid, fc + 0.5 * MIN_EXTENT_BINS), hi)
-        a, b = lo, hi
-        # a neighbour pair on the same side leaves the other side at the local estimate
+        # link j–(j+1): consecutive rays of one fan that hit the same labelled surface; the
+        # footprint side facing the neighbour ends at the midpoint of the two ranges
+        link = neighbours & hit[:-1] & hit[1:] & (lab[:-1] == lab[1:])
+        f0, f1 = fc[:-1], fc[1:]
+        mid = 0.5 * (f0 + f1)
+        up = link & (f1 > f0)  # range grows towards j+1
+        dn = link & (f1 <= f0)
+        half = 0.5 * MIN_EXTENT_BINS
+        b[:-1] = np.where(up, np.maximum(mid, f0 + half), b[:-1])
+        a[1:] = np.where(up, np.minimum(mid, f1 - half), a[1:])
+        a[:-1] = np.where(dn, np.minimum(mid, f0 - half), a[:-1])
+        b[1:] = np.where(dn, np.maximum(mid, f1 + half), b[1:])
     is_obj = lab >= 1
     any_obj = bool(is_obj.any())
     bg = hit & ~is_obj if any_obj else hit

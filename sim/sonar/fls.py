@@ -99,9 +99,7 @@ class ForwardLookingSonar:
         self._gain = (bv * ce * deps * dbeta).reshape(-1) * self.mount.sl * self.mount.mu
         self._rows = np.repeat(np.arange(nb, dtype=np.int64), nr)
         j = np.arange(nb * nr).reshape(nb, nr)
-        prev = np.where(j % nr > 0, j - 1, -1).reshape(-1)
-        nxt = np.where(j % nr < nr - 1, j + 1, -1).reshape(-1)
-        self._neighbours = (prev, nxt)
+        self._neighbours = (j % nr < nr - 1).reshape(-1)[:-1]  # j and j+1 in the same beam
 
     @property
     def rays_per_frame(self) -> int:

@@ -113,9 +113,7 @@ class MSISSonar:
         self.head_angle = np.deg2rad(c.sector_center_deg - c.sector_deg / 2.0)
         self._zero_rows = np.zeros(self._az.size, np.int64)
         j = np.arange(nh * nv).reshape(nh, nv)
-        prev = np.where(j % nv > 0, j - 1, -1).reshape(-1)
-        nxt = np.where(j % nv < nv - 1, j + 1, -1).reshape(-1)
-        self._neighbours = (prev, nxt)
+        self._neighbours = (j % nv < nv - 1).reshape(-1)[:-1]  # j and j+1 in the same column
 
     def head_angles(self) -> np.ndarray:
         """Head angles (rad) of one scan's pings, starting at the sector's start."""

@@ -66,13 +66,13 @@ class SSSPing:
 class RayFan:
     """The rays of one SSS ping in the sensor frame: directions (N, 3) unit; d_directions
     (N, 3) = ∂d/∂θ·Δθ; gain (N,) SL·b²·ΔΩ·μ; rows (N,) 0 port / 1 starboard; neighbours
-    (prev, next) (N,) indices along θ (−1 at the ends)."""
+    (N − 1,) bool, True where rays j and j + 1 are consecutive in θ."""
 
     directions: np.ndarray
     d_directions: np.ndarray
     gain: np.ndarray
     rows: np.ndarray
-    neighbours: tuple[np.ndarray, np.ndarray]
+    neighbours: np.ndarray
 
 
 class SideScanSonar:
@@ -182,7 +182,7 @@ class SideScanSonar:
             d_directions=np.concatenate([parts[0][1], parts[1][1]]),
             gain=np.concatenate([parts[0][2], parts[1][2]]),
             rows=np.repeat(np.array([0, 1], np.int64), parts[0][0].shape[0]),
-            neighbours=(np.where(j % nt > 0, j - 1, -1), np.where(j % nt < nt - 1, j + 1, -1)),
+            neighbours=(j % nt < nt - 1)[:-1],
         )
         self._fan_cache = (key, fan)
         return fan
@@ -263,7 +263,7 @@ class SideScanSonar:
                         m.alpha_db_m,
                         m.specular,
                         1.0,
-                        tuple(np.where(q[sl] >= 0, q[sl] - k * n_side, -1) for q in nbrs),
+                        nbrs[: n_side - 1],
                     )
                 )
             mean = np.concatenate([e.mean for e in out])
