@@ -104,6 +104,9 @@ class Autopilot:
         # waypoint acceptance: the mission's radius, at least the vehicle's turn radius
         # (except for the last waypoint of a station-keeping mission)
         self.acceptance = max(mission.acceptance_radius, gains.turn_radius)
+        # speed demand: the mission's, capped at what the vehicle holds (gains.cruise_speed:
+        # thrust and Munk-moment limits; autopilot_for warns when it caps)
+        self.speed = min(mission.speed, gains.cruise_speed) if mission.speed > 0 else 0.0
         self.pid_heading = PID(gains.heading)
         self.pid_depth = PID(gains.depth)
         self.pid_pitch = PID(gains.pitch)
@@ -193,10 +196,10 @@ class Autopilot:
                     los.cross_track, self._ilos, g.lookahead, self.ilos_sigma
                 )
             psi_d = wrap(los.course - beta)
-            speed_d = m.speed
+            speed_d = self.speed
             # slow down for the final approach and for large heading errors
             if self.leg == n_legs - 1:
-                speed_d = min(speed_d, max(0.3 * m.speed, 0.5 * dist_wp))
+                speed_d = min(speed_d, max(0.3 * self.speed, 0.5 * dist_wp))
             if not g.depth_by_pitch:
                 # hovering vehicles dive before they transit: the Munk moment
                 # (A33 - A11) u w of a flat hull would otherwise out-muscle the pitch

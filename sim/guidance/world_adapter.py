@@ -9,6 +9,7 @@ Reads only public ``World`` / ``VehicleHandle`` attributes plus the ThrusterBank
 from __future__ import annotations
 
 import itertools
+import warnings
 
 import numpy as np
 
@@ -24,7 +25,13 @@ from sim.guidance.gains import (
 )
 from sim.guidance.missions import Mission, WorldBounds
 
-__all__ = ["autopilot_for", "bounds_from_world", "check_mission_in_world", "plant_for"]
+__all__ = [
+    "autopilot_for",
+    "bounds_from_world",
+    "check_mission_in_world",
+    "gains_for",
+    "plant_for",
+]
 
 
 def bounds_from_world(world) -> WorldBounds:
@@ -103,4 +110,13 @@ def autopilot_for(world, name: str, mission: Mission, check: bool = True, **kw) 
     first unless ``check`` is False). ``kw`` goes to :class:`Autopilot`."""
     if check:
         check_mission_in_world(mission, world)
-    return Autopilot(mission, gains_for(world, name, mission.speed), **kw)
+    gains = gains_for(world, name, mission.speed)
+    if mission.kind != "hold" and gains.cruise_speed < 0.95 * mission.speed:
+        warnings.warn(
+            f"vehicle {name!r} ({world.vehicles[name].kind}) cannot hold the mission speed "
+            f"{mission.speed:.3g} m/s (thrust / Munk-moment limit): flying at "
+            f"{gains.cruise_speed:.3g} m/s",
+            UserWarning,
+            stacklevel=2,
+        )
+    return Autopilot(mission, gains, **kw)

@@ -141,3 +141,14 @@ def test_mission_leaving_the_world_is_rejected(world_kind):
     with pytest.raises(ValueError, match="reaches the seabed"):
         autopilot_for(world, kind, deep)
     assert math.isfinite(gains_for(world, kind).cruise_speed)
+
+
+def test_too_fast_mission_speed_is_capped_with_a_warning(world_kind):
+    """A 4 m/s mission exceeds every vehicle's thrust (U_max from d_l U + d_q U² = X_max):
+    the autopilot_for call warns and the speed demand is the vehicle's cruise limit."""
+    world, kind = world_kind
+    m = straight_line((0.0, 0.0), (30.0, 0.0), speed=4.0, depth=DEPTH)
+    with pytest.warns(UserWarning, match="cannot hold the mission speed"):
+        ap = autopilot_for(world, kind, m)
+    assert ap.speed == pytest.approx(gains_for(world, kind, 4.0).cruise_speed)
+    assert ap.speed < 4.0
