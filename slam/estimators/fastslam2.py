@@ -520,7 +520,13 @@ class FastSLAM2:
                 loglik[:, j_unk] = p0[None, :]
 
         # ---------------------------------------------------------- weights, resampling
-        logw = logw + loglik.sum(axis=1)
+        # The observations of one scan share the particle's pose uncertainty Pv, so their
+        # joint predictive density is one Gaussian with S = Hv Pv Hv^T + blockdiag(Hf Pf Hf^T + R)
+        # (as in Bailey's later compute_weight), not the product of the per-observation ones.
+        valid = assoc >= 0
+        logw = logw + np.where(valid, 0.0, loglik).sum(axis=1)
+        if valid.any():
+            logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid)
         logw -= logw.max()  # keep in range; the normalization is implicit
         w, _ = normalize_log_weights(logw)
         if 1.0 / np.sum(w * w) < cfg.resample_threshold * n:
@@ -608,6 +614,29 @@ class FastSLAM2:
         self._label_slot = label_slot
         b = int(np.argmax(logw))
         return UpdateResult(associations=assoc[b].copy(), new=new_flag[b].copy(), nis=nis[b].copy())
+
+    @staticmethod
+    def _joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid) -> np.ndarray:
+        """(n,) log N(z_valid; zhat, S) per particle over its associated observations."""
+        n, k = assoc.shape
+        rows = np.arange(n)[:, None]
+        sl = np.where(valid, assoc, 0)
+        zhat, Hv, Hf = observation_model(xv[:, None, :], m[rows, sl])  # (n, k, ...)
+        v = Z[None] - zhat
+        v[..., 1] = _wrap(v[..., 1])
+        v = np.where(valid[..., None], v, 0.0)
+        Hv = np.where(valid[..., None, None], Hv, 0.0)
+        Sf = np.where(valid[..., None, None], _quad(Hf, P[rows, sl]) + R[None], np.eye(2))
+        Hvj = Hv.reshape(n, 2 * k, 3)
+        S = Hvj @ Pv @ np.swapaxes(Hvj, 1, 2)
+        S4 = S.reshape(n, k, 2, k, 2)
+        idx = np.arange(k)
+        S4[:, idx, :, idx, :] += np.moveaxis(Sf, 1, 0)  # advanced indices first: (k, n, 2, 2)
+        S = _sym(S4.reshape(n, 2 * k, 2 * k))
+        vj = v.reshape(n, 2 * k)
+        _, logdet = np.linalg.slogdet(S)
+        q = np.einsum("ni,ni->n", vj, np.linalg.solve(S, vj[..., None])[..., 0])
+        return -0.5 * q - 0.5 * logdet - valid.sum(axis=1) * _LOG_2PI
 
     def _p0(self, R: np.ndarray) -> np.ndarray:
         """Log-likelihood given to a new or discarded observation, (k,)."""

@@ -375,3 +375,49 @@ def test_factory_builds_fastslam2_with_keyword_parameters():
 
     f = make_estimator("fastslam2", n_particles=7, rng=np.random.default_rng(0), reject_gate=3.0)
     assert isinstance(f, FastSLAM2) and f.n_particles == 7 and f.config.reject_gate == 3.0
+
+
+def test_importance_weight_is_the_joint_predictive_density_of_the_scan():
+    """Observations of one scan share the pose uncertainty: the weight must be the joint
+    Gaussian N(z; ẑ, Hv Pv Hvᵀ + blockdiag(Hf Pf Hfᵀ + R)) — checked against
+    scipy.stats.multivariate_normal with finite-difference Jacobians — not the product of
+    the per-observation densities (which it must differ from here)."""
+    from scipy.stats import multivariate_normal
+
+    lms = np.array([[10.0, 3.0], [6.0, -7.0]])
+    f = FastSLAM2(
+        n_particles=2, rng=np.random.default_rng(0), association="known", resample_threshold=0.0
+    )
+    f.update([RangeBearing(_h(np.zeros(3), lm), R_DEFAULT, label=i) for i, lm in enumerate(lms)])
+    Q = np.diag([0.3**2, 0.2**2, np.deg2rad(5.0) ** 2])
+    f.predict(Odometry([1.0, 0.0, 0.0], Q))
+    f._xv[1] += np.array([0.4, -0.3, 0.05])
+    xs, Pvs = f._xv.copy(), f._Pv.copy()
+    ms, Ps = f._m[:, :2].copy(), f._P[:, :2].copy()
+    z = np.array([_h(np.array([1.1, 0.1, 0.02]), lm) for lm in lms])
+    f.update([RangeBearing(z[i], R_DEFAULT, label=i) for i in range(2)])
+    joint, product = [], []
+    for p in range(2):
+        zhat = np.concatenate([_h(xs[p], ms[p, i]) for i in range(2)])
+        Hv = np.vstack([_num_jac(lambda q, i=i, p=p: _h(q, ms[p, i]), xs[p]) for i in range(2)])
+        S = Hv @ Pvs[p] @ Hv.T
+        for i in range(2):
+            Hf = _num_jac(lambda q, i=i, p=p: _h(xs[p], q), ms[p, i])
+            S[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] += Hf @ Ps[p, i] @ Hf.T + R_DEFAULT
+        v = z.reshape(-1) - zhat
+        v[1::2] = wrap_angle(v[1::2])
+        joint.append(multivariate_normal(np.zeros(4), S).logpdf(v))
+        product.append(
+            sum(
+                multivariate_normal(np.zeros(2), S[2 * i : 2 * i + 2, 2 * i : 2 * i + 2]).logpdf(
+                    v[2 * i : 2 * i + 2]
+                )
+                for i in range(2)
+            )
+        )
+    lw = f.log_weights
+    assert lw[1] - lw[0] == pytest.approx(joint[1] - joint[0], rel=1e-6)
+    # the product of marginals would miss the tolerance above by far
+    assert abs((product[1] - product[0]) - (joint[1] - joint[0])) > 1e3 * 1e-6 * abs(
+        joint[1] - joint[0]
+    )
