@@ -137,7 +137,8 @@ class ThrusterBank:
             nu = nu_r[self._fin_owner]  # (n_fin, 6)
             u = nu[:, 0]
             au = np.abs(u)
-            cross = (self._fin_cols * nu).sum(axis=1)
+            lim = FIN_STALL_RAD * au  # incidence w_f/|u| limited to the stall angle
+            cross = np.minimum(np.maximum((self._fin_cols * nu).sum(axis=1), -lim), lim)
             f[self._fin_idx] = au * (
                 self._fin_gain * lv[self._fin_idx] * u - self._fin_lift * cross
             )
