@@ -88,17 +88,19 @@ def fan_view(fls_frame, linear: np.ndarray, labels: np.ndarray):
 
 
 def _polygons(mask: np.ndarray) -> list[list[float]]:
-    """Outer contours as COCO polygons [x0, y0, x1, y1, ...] through pixel centres; a
-    contour of fewer than 3 points becomes its pixels' bounding square."""
-    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    """COCO polygons [x0, y0, x1, y1, ...] of a binary mask: iso-contours at 0.5
+    (``skimage.measure.find_contours``), which run along pixel edges, shifted to COCO's
+    continuous coordinates (pixel (r, c) covers [c, c+1) x [r, r+1)). Holes are not
+    represented (COCO polygons are unions); diagonal edges are cut corner to corner."""
+    from skimage import measure
+
+    padded = np.pad(mask.astype(np.float32), 1)
     polys = []
-    for c in contours:
-        p = c.reshape(-1, 2).astype(float)
-        if len(p) < 3:
-            x0, y0 = p.min(0) - 0.5
-            x1, y1 = p.max(0) + 0.5
-            p = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
-        polys.append(np.round(p.reshape(-1), 3).tolist())
+    for c in measure.find_contours(padded, 0.5):
+        if len(c) < 3:
+            continue
+        xy = c[:, ::-1] - 1.0 + 0.5  # (row, col) of the padded image -> (x, y) COCO
+        polys.append(np.round(xy.reshape(-1), 3).tolist())
     return polys
 
 
