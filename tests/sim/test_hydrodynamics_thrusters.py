@@ -115,3 +115,25 @@ def test_saturated_allocation_redistributes_to_free_thrusters():
     err_redist = np.linalg.norm((wrench(u) - tau)[mask])
     err_clip = np.linalg.norm((wrench(u_clip) - tau)[mask])
     assert err_redist < err_clip
+
+
+def test_fin_incidence_lift_opposes_cross_flow_and_saturates_at_stall():
+    """Passive fin lift F = −½ρSC_Lα |u| w_f (opposes the flow across the fin) for small
+    incidence, and is capped at ½ρSC_Lα u² α_stall beyond the stall angle."""
+    from sim.thrusters import FIN_STALL_RAD
+
+    gain = 40.0
+    spec = ThrusterSpec(
+        "rudder", "fin", gain * 0.35, gain * 0.35, 0.1, (-0.85, 0, 0), (0, 1, 0), lift_gain=gain
+    )
+    b = ThrusterBank([[spec]], 0.01)
+    u = 2.0
+    small = np.array([[u, 0.05, 0, 0, 0, 0]])  # sway 0.05 m/s: α = 0.025 rad
+    b.step(small)
+    assert b.force[0] == pytest.approx(-gain * u * 0.05)
+    big = np.array([[u, 3.0, 0, 0, 0, 0]])  # α = 56°
+    b.step(big)
+    assert b.force[0] == pytest.approx(-gain * u * u * FIN_STALL_RAD)
+    # yaw rate r swings the tail (x = −0.85) to starboard: flow across the fin is −0.85 r
+    b.step(np.array([[u, 0, 0, 0, 0, 0.1]]))
+    assert b.force[0] == pytest.approx(gain * u * 0.085)
