@@ -134,7 +134,7 @@ class ObjectInfo:
     static: bool = True
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, repr=False)
 class World:
     """A built world. See CONTRACTS.md; ``step`` advances hydrodynamics + thrusters + MuJoCo."""
 
@@ -157,6 +157,12 @@ class World:
     _dofs: np.ndarray | slice | None = None
     _init_qpos: np.ndarray | None = None
     _static_cache: tuple | None = None
+
+    def __repr__(self) -> str:
+        return (
+            f"World(t={self.time:.3f} s, dt={self.timestep} s, seabed={self.spec.seabed.kind!r}, "
+            f"vehicles={list(self.vehicles)}, objects={len(self.objects)}, ngeom={self.model.ngeom})"
+        )
 
     @property
     def time(self) -> float:
