@@ -13,6 +13,10 @@ ch. 3.6; APL-UW 1994 high-frequency model): steel and concrete structures are st
 −25…−20 dB. The absolute values are an assumption of this project; the sonar helper
 calibrates overall level.
 
+Contacts: MuJoCo collides mesh geoms through their convex hull, so for a vehicle the
+hollow pipe, the tyre and the branch fork are solid (rays and the static mesh use the
+true triangles). Objects never collide with each other or the seabed (they are placed).
+
 The mannequin is articulated: a kinematic tree of capsules with hinge joints (spring-
 loaded to a seeded pose, gravity-compensated as a flooded plastic body resting on the
 floor), built straight into the MJCF by the world builder.
