@@ -17,7 +17,6 @@ import os
 import sys
 import time
 
-import mujoco
 import numpy as np
 
 
@@ -89,8 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     )
 
     def mover(k):
-        d.qpos[0] = -50.0 + 0.1 * (k % 1000)
-        mujoco.mj_kinematics(m, d)
+        sc.move_vehicle(-50.0 + 0.1 * (k % 1000))
 
     args_common = (m, d)
     sss_cfg = preset("deepeye680d")  # 2 × 1000 samples, 50 m

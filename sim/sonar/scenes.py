@@ -43,6 +43,25 @@ class SonarScene:
     vehicle_body: int
     objects: list[SceneObject] = field(default_factory=list)
 
+    def qpos_adr(self, body: int | str) -> int:
+        """First qpos index of a free-jointed body (by id or name): x, y, z, qw, qx, qy, qz."""
+        b = (
+            body
+            if isinstance(body, int)
+            else mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, body)
+        )
+        return int(self.model.jnt_qposadr[self.model.body_jntadr[b]])
+
+    def move_vehicle(self, x: float, y: float | None = None, z: float | None = None) -> None:
+        """Place the vehicle (world m) and update kinematics (``mj_kinematics``)."""
+        a = self.qpos_adr(self.vehicle_body)
+        self.data.qpos[a] = x
+        if y is not None:
+            self.data.qpos[a + 1] = y
+        if z is not None:
+            self.data.qpos[a + 2] = z
+        mujoco.mj_kinematics(self.model, self.data)
+
 
 def seabed_grid(
     size: float,

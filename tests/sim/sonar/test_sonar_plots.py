@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 
 from sim.sonar import ForwardLookingSonar, SideScanSonar, SideScanWaterfall, preset
@@ -28,8 +27,7 @@ def test_plots_write_png(tmp_path):
     rng = np.random.default_rng(0)
     pings = []
     for x in np.arange(-2, 2, 0.25):
-        sc.data.qpos[0] = x
-        mujoco.mj_kinematics(sc.model, sc.data)
+        sc.move_vehicle(x)
         pings.append(son.ping(sc.data, rng))
     plot_waterfall(SideScanWaterfall.from_pings(pings), tmp_path / "wf.png")
     fls = ForwardLookingSonar(

@@ -29,8 +29,8 @@ def test_embree_and_mujoco_same_hits_to_1mm():
     emb = EmbreeRays(m, d, sc.vehicle_body)
     muj = MujocoRays(m, sc.vehicle_body)
     # move the free bodies after the Embree scene was built
-    d.qpos[7:10] += [0.5, -0.3, 0.2]
-    d.qpos[14:17] += [-0.4, 0.6, 0.1]
+    d.qpos[sc.qpos_adr("obj2") + np.arange(3)] += [0.5, -0.3, 0.2]
+    d.qpos[sc.qpos_adr("obj3") + np.arange(3)] += [-0.4, 0.6, 0.1]
     mujoco.mj_kinematics(m, d)
     o = d.site_xpos[sc.sites["sss"]].copy()
     targets = np.array(

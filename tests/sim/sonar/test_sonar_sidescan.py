@@ -185,8 +185,7 @@ def test_label_centroid_maps_back_to_object_position():
     pings = []
     xs = np.arange(-1.0, 1.0, 0.05)
     for x in xs:
-        scene.data.qpos[0] = x
-        mujoco.mj_kinematics(scene.model, scene.data)
+        scene.move_vehicle(x)
         pings.append(son.ping(scene.data, rng))
     wf = SideScanWaterfall.from_pings(pings)
     lab = wf.labels == 1
@@ -207,11 +206,9 @@ def test_ground_range_image_and_mosaic(box_scene):
     rng = np.random.default_rng(0)
     pings = []
     for x in np.arange(-3.0, 3.0, 0.2):
-        box_scene.data.qpos[0] = x
-        mujoco.mj_kinematics(box_scene.model, box_scene.data)
+        box_scene.move_vehicle(x)
         pings.append(son.ping(box_scene.data, rng))
-    box_scene.data.qpos[0] = 0.0
-    mujoco.mj_kinematics(box_scene.model, box_scene.data)
+    box_scene.move_vehicle(0.0)
     wf = SideScanWaterfall.from_pings(pings)
     gr = slant_to_ground(wf)
     G = gr.image.shape[1] // 2
