@@ -168,8 +168,9 @@ class SideScanSonar:
 
     def ray_fan(self, altitude: float) -> RayFan:
         """Both sides' rays for a ping at ``altitude`` (m; NaN: no bottom found). The fan
-        depends on the altitude only to a quarter bin, so the last one is reused."""
-        key = round(altitude / (0.25 * self.bin_width)) if np.isfinite(altitude) else None
+        is rebuilt only when the altitude moved by two bins (footprints adapt to the actual
+        hits, so a slightly stale ray distribution only changes the sampling density)."""
+        key = round(altitude / (2.0 * self.bin_width)) if np.isfinite(altitude) else None
         if self._fan_cache is not None and self._fan_cache[0] == key:
             return self._fan_cache[1]
         theta, dtheta = self.depression_angles(altitude)
