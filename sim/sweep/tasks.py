@@ -63,9 +63,18 @@ def scenario_task(scenario: str) -> Task:
     load_scenario_dict(scenario)  # fail fast on an unknown scenario
 
     def run(params: dict, seed: int, artifacts: Path) -> dict:
-        from sim.runner import run_scenario_overrides
+        from sim.runner import run_scenario
+        from sim.scenario import load_scenario
 
-        return run_scenario_overrides(scenario, params, seed=seed, out_dir=artifacts)
+        # the overrides go through the scenario validation: a bad key or value fails here,
+        # with the scenario's own message, and is recorded as this run's error
+        spec = load_scenario(scenario, overrides=params).with_overrides(seed=seed)
+        result = run_scenario(spec, artifacts, overwrite=True, progress=False)
+        if not result.complete:
+            raise RuntimeError(f"scenario run incomplete: {artifacts}")
+        metrics = dict(result.metrics)
+        metrics.pop("objects", None)  # world description, not a metric
+        return metrics
 
     return run
 

@@ -140,3 +140,24 @@ def test_ray_local_two_workers_equals_serial(tmp_path):
     for run_id in a:
         a[run_id].pop("time_s"), b[run_id].pop("time_s")
         assert a[run_id] == b[run_id]
+
+
+def test_scenario_sweep_with_override_matches_a_direct_run(tmp_path):
+    """A sweep run of a scenario equals the scenario runner called directly with the same
+    overrides and seed (metrics except wall-clock timing), and a bad override is a
+    recorded failure naming the field."""
+    from sim.runner import run_scenario
+    from sim.scenario import load_scenario
+
+    plan = SweepPlan("shipwreck-survey", runs=1, vary={"duration_s": [4.0]}, base_seed=3)
+    res = run_sweep(plan, tmp_path / "sw", progress=False)
+    assert not res.failed, res.failed
+    (rec,) = load_records(tmp_path / "sw")
+    direct = run_scenario(load_scenario("shipwreck-survey", {"duration_s": 4.0}).with_overrides(seed=3),
+                          tmp_path / "direct", progress=False).metrics
+    for m in (rec["metrics"], direct):
+        m.pop("timing"), m.pop("objects", None)
+    assert rec["metrics"] == json.loads(json.dumps(direct))
+    bad = run_sweep(SweepPlan("shipwreck-survey", runs=1, vary={"duration_s": [-1.0]}),
+                    tmp_path / "bad", progress=False)
+    assert "duration_s" in next(iter(bad.failed.values()))
