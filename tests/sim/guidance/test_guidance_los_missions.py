@@ -146,3 +146,18 @@ def test_mission_leaving_world_names_waypoint_and_bounds():
 def test_bad_mission_input(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+def test_plot_mission_track_draws_plan_and_track():
+    """The figure holds the plan polyline and the flown track with the given data."""
+    from sim.guidance.plots import plot_mission_track
+
+    m = loop([(0, 0), (10, 0), (10, 10)], speed=1.0, depth=2.0)
+    track = np.array([[0.0, 0.0], [5.0, 0.5], [10.0, 1.0]])
+    fig = plot_mission_track(m, track, cross_track=[0.0, 0.5, 1.0], t=[0.0, 1.0, 2.0])
+    ax = fig.axes[0]
+    flown = next(ln for ln in ax.lines if ln.get_label() == "flown")
+    np.testing.assert_allclose(flown.get_xydata(), track)
+    assert len(fig.axes) == 2
+    with pytest.raises(ValueError, match="track_xy"):
+        plot_mission_track(m, np.zeros(5))
