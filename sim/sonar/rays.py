@@ -209,6 +209,17 @@ class EmbreeRays:
         )
         self.face_geom = np.append(np.asarray(G, np.int32), -1)  # index -1 (miss) → -1
         self.center = np.asarray(V, float).mean(axis=0) if len(V) else np.zeros(3)
+        # unit face normals in float64 (index −1, a miss, → zeros): cheaper and more exact
+        # than normalising Embree's float32 geometric normal per hit
+        Vd = np.asarray(V, float)
+        Fi = np.asarray(F, np.int64)
+        if len(Fi):
+            fn = np.cross(Vd[Fi[:, 1]] - Vd[Fi[:, 0]], Vd[Fi[:, 2]] - Vd[Fi[:, 0]])
+            ln = np.linalg.norm(fn, axis=1, keepdims=True)
+            fn = np.where(ln > 0, fn / np.where(ln > 0, ln, 1.0), 0.0)
+        else:
+            fn = np.zeros((0, 3))
+        self.face_normal = np.concatenate([fn, np.zeros((1, 3))])
         self.scene = None
         if len(F):
             self.scene = rtcore_scene.EmbreeScene()
@@ -238,17 +249,13 @@ class EmbreeRays:
         if self.scene is not None:
             o = np.empty((n, 3), np.float32)
             o[:] = np.asarray(origin, float) - self.center
-            res = self.scene.run(o, np.ascontiguousarray(dirs, np.float32), output=1)
+            tmax = np.full(n, cutoff, np.float32)  # Embree ignores hits beyond tfar
+            res = self.scene.run(o, np.ascontiguousarray(dirs, np.float32), tmax, output=1)
             prim = res["primID"]
-            tfar = res["tfar"]
-            hit = (prim >= 0) & (tfar <= cutoff)
-            dist = np.where(hit, tfar, np.inf).astype(np.float64)
-            geom = np.where(hit, self.face_geom[prim], -1).astype(np.int32)
-            ng = res["Ng"]
-            inv = np.where(
-                hit, 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->i", ng, ng)), 1e-30), 0.0
-            )
-            normal = (ng * inv[:, None]).astype(np.float64)
+            hit = prim >= 0
+            dist = np.where(hit, res["tfar"], np.inf).astype(np.float64)
+            geom = self.face_geom[prim]  # −1 for misses
+            normal = self.face_normal[prim]  # zeros for misses
         else:
             dist = np.full(n, np.inf)
             geom = np.full(n, -1, np.int32)
