@@ -534,7 +534,9 @@ class FastSLAM2:
             xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
             assoc, nis = assoc[idx], nis[idx]
             logw = np.zeros(n)
-            self.n_resamples += 1
+            resampled = True
+        else:
+            resampled = False
 
         # ---------------------------------------------------------- proposal (sequential EKF)
         ar = np.arange(n)
@@ -599,12 +601,10 @@ class FastSLAM2:
             Gz[:, 1, 0], Gz[:, 1, 1] = s, r * c
             P[pi, slots] = _sym(_quad(Gz, R[pj]))
             exists[pi, slots] = True
-            count = np.maximum(count, np.where(n_known_new > 0, base + n_known_new, 0))
+            if n_known_new:
+                count = np.maximum(count, base + n_known_new)
             count = np.maximum(count, first_free + unk_new.sum(axis=1))
             assoc[pi, pj] = slots
-            new_flag = newmask
-        else:
-            new_flag = newmask
 
         # ---------------------------------------------------------- commit
         self._xv, self._Pv, self._logw = xv, Pv, logw
@@ -612,8 +612,9 @@ class FastSLAM2:
         for lab in new_labels:
             self._slot_label[label_slot[lab]] = lab
         self._label_slot = label_slot
+        self.n_resamples += int(resampled)
         b = int(np.argmax(logw))
-        return UpdateResult(associations=assoc[b].copy(), new=new_flag[b].copy(), nis=nis[b].copy())
+        return UpdateResult(associations=assoc[b].copy(), new=newmask[b].copy(), nis=nis[b].copy())
 
     @staticmethod
     def _joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid) -> np.ndarray:
