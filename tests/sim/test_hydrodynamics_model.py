@@ -296,7 +296,9 @@ def test_varying_current_is_divergence_free_and_has_requested_rms():
     assert not np.allclose(f.velocity(p[:5], 0.0), f.velocity(p[:5], 300.0))  # changes in time
 
 
-def _fossen_rhs(h: HydroParams, tau: np.ndarray, vc_world: np.ndarray, rho: float, g: float):
+def _fossen_rhs(
+    h: HydroParams, tau: np.ndarray, vc_world: np.ndarray, rho: float, g: float, fins: tuple = ()
+):
     """Second implementation of the 6-DOF model as an ODE in (p, q, ν) for scipy: the
     textbook matrices (M, C_RB, C_A, D, g(η)) built explicitly, no MuJoCo."""
     from sim.frames import matrix_from_wxyz
@@ -327,8 +329,15 @@ def _fossen_rhs(h: HydroParams, tau: np.ndarray, vc_world: np.ndarray, rho: floa
         fb = R.T @ np.array([0, 0, B])
         gvec = np.concatenate([fg + fb, np.cross(h.r_cb, fb)])
         acc_c = np.concatenate([-np.cross(w, vc), np.zeros(3)])
+        tau_f = np.zeros(6)
+        for r_f, n_f, k_f in fins:  # passive fin lift −K|u_r| w_f n, w_f capped at stall
+            u = vr[0]
+            w_f = n_f @ (vr + np.cross(w, r_f))
+            w_f = np.clip(w_f, -0.35 * abs(u), 0.35 * abs(u))
+            f = -k_f * abs(u) * w_f * n_f
+            tau_f += np.concatenate([f, np.cross(r_f, f)])
         nudot = Minv @ (
-            tau - C_rb @ nu - C_a @ nur - D @ nur + gvec + np.diag(h.added_mass) @ acc_c
+            tau + tau_f - C_rb @ nu - C_a @ nur - D @ nur + gvec + np.diag(h.added_mass) @ acc_c
         )
         qd = 0.5 * np.array(
             [
@@ -343,15 +352,16 @@ def _fossen_rhs(h: HydroParams, tau: np.ndarray, vc_world: np.ndarray, rho: floa
     return rhs
 
 
-@pytest.mark.parametrize("kind", ["ixn", "naiad", "saga", "rexrov"])
+@pytest.mark.parametrize("kind", ["alister9", "ixn", "naiad", "saga", "rexrov"])
 def test_world_trajectory_matches_textbook_fossen_ode(kind):
     """MuJoCo + the applied-force construction reproduces the 6-DOF Fossen model integrated
     by scipy (RK45, tight tolerances) from a tumbling start in a current, under a constant
     body wrench: 5 s, positions within 1 cm, attitude within 0.01 rad (the world uses
-    semi-implicit Euler at 0.01 s)."""
+    semi-implicit Euler at 0.01 s; 2 cm for the torpedo, whose passive fin lift is added to
+    the reference ODE independently)."""
     from sim.frames import wxyz_from_euler
 
-    vk = kind  # vehicles without fins (the torpedo's passive fin lift is not in the ODE)
+    vk = kind
     cur = np.array([0.3, -0.2, 0.05])
     w = _world(vk, current=CurrentSpec(velocity=tuple(cur)))
     v = w.vehicles[vk]
@@ -363,11 +373,21 @@ def test_world_trajectory_matches_textbook_fossen_ode(kind):
     v.set_external_wrench(tau)
     w.step(500)
     s = v.state()
-    rhs = _fossen_rhs(h, tau, cur, w.water.density, w.water.gravity)
+    fins = tuple(
+        (np.array(sp.position), np.array(sp.direction), sp.lift_gain)
+        for sp in v.model.thruster_specs(
+            {n: w.model.site_pos[w.model.site(f"{vk}/{n}").id] for n in v.thruster_names},
+            {n: w.thrusters.columns[i, :3] for i, n in enumerate(v.thruster_names)},
+            w.water.density,
+        )
+        if sp.kind == "fin"
+    )
+    rhs = _fossen_rhs(h, tau, cur, w.water.density, w.water.gravity, fins)
     y0 = np.concatenate([[0.0, 0.0, -20.0], q0, nu0])
     sol = solve_ivp(rhs, (0.0, 5.0), y0, rtol=1e-10, atol=1e-12)
     yT = sol.y[:, -1]
-    np.testing.assert_allclose(s.position, yT[:3], atol=0.01)
+    # the torpedo's fin lift is stiff and explicit: first-order error ≈ 1 cm here
+    np.testing.assert_allclose(s.position, yT[:3], atol=0.02 if fins else 0.01)
     from sim.frames import euler_from_wxyz
 
     np.testing.assert_allclose(s.euler, euler_from_wxyz(yT[3:7]), atol=0.01)
