@@ -20,7 +20,11 @@ ping k: its bottom-tracked altitude, the along-track spacing speed / ping rate),
 ground range sqrt(r^2 - h^2) and bearing ~ +90 deg (port) / -90 deg (starboard) seen
 from the pose at ping k, with a covariance from cell sizes and the region's extent.
 Detections whose centroid lies in the water column (slant range < altitude) give no
-observation. The runner feeds it to SLAM at the pose of t_k (sim.runner.lagged).
+observation. A view-dependent term is added to that covariance: a side-scan highlight
+is the sonar-facing part of an object, so its centroid moves across the object between
+passes from opposite sides; ``view_bias`` x the region's across-track extent (range) and
+along-track extent (as a bearing) are added as standard deviations (0.5: half the
+extent), so re-observations from the other side still pass the association gates. The runner feeds it to SLAM at the pose of t_k (sim.runner.lagged).
 
 Scoring uses the simulator's per-sample labels: a detection is a true positive when at
 least ``tp_fraction`` of its region's pixels carry an object id > 0.
@@ -107,6 +111,7 @@ class SidescanProcessor:
         altitude_sigma: float = 0.1,
         prepare: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
         min_ground_range: float = 2.0,
+        view_bias: float = 0.5,
     ) -> None:
         if not 1 <= hop <= window:
             raise ValueError(f"hop must be in [1, window={window}], got {hop}")
@@ -122,6 +127,7 @@ class SidescanProcessor:
         self.horizon = -np.inf  # pings at or before this time are final
         self.prepare = prepare
         self.min_ground_range = float(min_ground_range)
+        self.view_bias = float(view_bias)
         self.pings: list[PingRecord] = []
         self._next_start = 0  # start ping of the next window
         self._owned_until = 0  # pings < this are owned by processed windows
@@ -245,7 +251,11 @@ class SidescanProcessor:
                 )
             except ValueError:  # centroid in the water column (no ground range): no observation
                 continue
-            obs = RangeBearing([rng_[0], brg[0]], cov[0], t=p.t, meta={"object_id": oid, "ping": k})
+            R = cov[0].copy()
+            if self.view_bias > 0:  # the highlight's place on the object depends on the view
+                R[0, 0] += (self.view_bias * ext[1] * bin_w) ** 2
+                R[1, 1] += (self.view_bias * ext[0] * geom.along_track_spacing / max(rng_[0], 1.0)) ** 2
+            obs = RangeBearing([rng_[0], brg[0]], R, t=p.t, meta={"object_id": oid, "ping": k})
             x, y, yaw = p.pose_true
             wxy = np.array([x + rng_[0] * np.cos(yaw + brg[0]), y + rng_[0] * np.sin(yaw + brg[0])])
             slant = float(np.hypot(rng_[0], p.altitude))
