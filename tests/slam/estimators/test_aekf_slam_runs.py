@@ -149,3 +149,19 @@ def test_factory_builds_estimators_and_rejects_unknown():
     assert fs.name == "fastslam2"
     with pytest.raises(ValueError, match="allowed: aekf, fastslam2, isam2"):
         make_estimator("ukf")
+
+
+@pytest.mark.slow
+def test_fifty_run_average_nees_fej_known_association_dense_loop():
+    """50 Monte Carlo runs of the full dense loop (dt 0.025): the time-mean of the average
+    pose NEES of FEJ with known association lies inside the 95 % bounds for n = 3, 50 runs
+    ([2.36, 3.72]); the standard EKF's does not (measured 22.4 with gated association)."""
+    from slam.experiments import run_monte_carlo
+
+    spec = get_experiment("dense-loop")
+    mc = run_monte_carlo(
+        spec, "aekf", runs=50, seed=0, estimator_params={"jacobians": "fej", "association": "known"}
+    )
+    lo, hi = mc.nees_bounds
+    assert lo <= float(np.nanmean(mc.avg_nees)) <= hi
+    assert mc.nees_frac_inside > 0.7
