@@ -136,16 +136,18 @@ class SideScanSonar:
                 np.stack([np.zeros_like(probe), -np.cos(probe), -np.sin(probe)], 1),
             ]
         )
-        self._probe_sin = np.concatenate([np.sin(probe), np.sin(probe)])
         self._fan_cache = None
 
     # -- geometry -----------------------------------------------------------------------
     def _altitude(self, data, origin, R) -> float:
-        hits = self.mount.backend.cast(data, origin, self._probe_local @ R.T, self.config.max_range)
+        """Median vertical distance (m) from the transducer down to the probe rays' hits
+        (7 rays per side at 60°–90° depression in the sensor frame); NaN if none hit."""
+        dirs = self._probe_local @ R.T
+        hits = self.mount.backend.cast(data, origin, dirs, self.config.max_range)
         ok = np.isfinite(hits.dist)
         if not np.any(ok):
             return float("nan")
-        return float(np.median(hits.dist[ok] * self._probe_sin[ok]))
+        return float(np.median(-dirs[ok, 2] * hits.dist[ok]))
 
     def depression_angles(self, altitude: float) -> tuple[np.ndarray, np.ndarray]:
         """Depression angles θ (rad) of the rays of one fan and their angular widths Δθ.

@@ -385,3 +385,26 @@ def test_every_sample_whose_ray_hit_object_k_carries_k():
     lab_sb = echo.labels[rows[sb], cell[sb].astype(int)]
     assert np.all((lab_sb == 0) | (lab_sb >= 1))  # seabed unless an object shares the cell
     assert np.mean(lab_sb == 0) > 0.9  # objects win only in the few cells they share
+
+
+def test_altitude_is_vertical_when_vehicle_rolls():
+    """Geometry: with 10° roll over a flat seabed the reported altitude is still the vertical
+    distance to the seabed; the lowered side's first return is at h, the raised side's at
+    h / cos(10°) (its fan ends 10° short of the vertical)."""
+    from sim.frames import wxyz_from_euler
+
+    sc = build_scene(altitude=10.0, seabed_cells=20)
+    a = sc.qpos_adr(sc.vehicle_body)
+    sc.data.qpos[a + 3 : a + 7] = wxyz_from_euler(np.deg2rad(10.0), 0.0, 0.0)
+    mujoco.mj_kinematics(sc.model, sc.data)
+    son = _sonar(sc)
+    ping = son.ping(sc.data, np.random.default_rng(0))
+    h = float(sc.data.site_xpos[sc.sites["sss"], 2])
+    assert ping.altitude == pytest.approx(h, abs=0.02)
+    S = ping.samples_per_side
+    first_port = int(np.flatnonzero(ping.labels[:S][::-1] == 0)[0])
+    first_stbd = int(np.flatnonzero(ping.labels[S:] == 0)[0])
+    bw = son.bin_width
+    # positive roll (about x) lowers the starboard side (−y) → starboard reaches the nadir
+    assert abs(first_stbd - int(h / bw)) <= 1
+    assert abs(first_port - int(h / np.cos(np.deg2rad(10.0)) / bw)) <= 2
