@@ -359,17 +359,26 @@ PRESETS: dict[str, Any] = {
 def preset(name: str, **overrides: Any) -> Any:
     """A preset config by name with any fields overridden (validated again).
 
-    ``acoustic`` may be given as an :class:`AcousticConfig` or as a dict of its fields.
+    ``acoustic`` may be given as an :class:`AcousticConfig` or as a dict of its fields;
+    acoustic fields (e.g. ``source_level_db``, ``noise_level_db``, ``speckle``) may also be
+    passed directly.
     """
     if name not in PRESETS:
         raise ValueError(
             f"sonar preset = {name!r} is unknown; allowed: {', '.join(sorted(PRESETS))}"
         )
     base = PRESETS[name]
-    if isinstance(overrides.get("acoustic"), dict):
-        overrides["acoustic"] = dataclasses.replace(base.acoustic, **overrides["acoustic"])
     valid = {f.name for f in dataclasses.fields(base)}
+    acoustic_fields = {f.name for f in dataclasses.fields(AcousticConfig)}
+    ac = overrides.pop("acoustic", None)
+    ac = dict(dataclasses.asdict(ac)) if isinstance(ac, AcousticConfig) else dict(ac or {})
+    for k in [k for k in overrides if k not in valid and k in acoustic_fields]:
+        ac[k] = overrides.pop(k)
     bad = sorted(set(overrides) - valid)
     if bad:
-        raise ValueError(f"unknown field(s) {bad} for preset {name!r}; allowed: {sorted(valid)}")
+        raise ValueError(
+            f"unknown field(s) {bad} for preset {name!r}; allowed: {sorted(valid | acoustic_fields)}"
+        )
+    if ac:
+        overrides["acoustic"] = dataclasses.replace(base.acoustic, **ac)
     return dataclasses.replace(base, **overrides)

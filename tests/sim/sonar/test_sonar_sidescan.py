@@ -408,3 +408,31 @@ def test_altitude_is_vertical_when_vehicle_rolls():
     # positive roll (about x) lowers the starboard side (−y) → starboard reaches the nadir
     assert abs(first_stbd - int(h / bw)) <= 1
     assert abs(first_port - int(h / np.cos(np.deg2rad(10.0)) / bw)) <= 2
+
+
+def test_presets_overridable_including_acoustic_fields():
+    """All fields overridable: geometry, ping rate and acoustic levels, directly or via
+    ``acoustic=dict(...)``; overrides are validated again."""
+    c = preset(
+        "deepeye340d",
+        frequency_hz=3.0e5,
+        max_range=60.0,
+        samples_per_side=800,
+        along_track_beamwidth_deg=0.5,
+        ping_rate_hz=5.0,
+        source_level_db=205.0,
+        acoustic=dict(noise_level_db=35.0),
+    )
+    assert (c.frequency_hz, c.max_range, c.samples_per_side, c.ping_rate_hz) == (
+        3.0e5,
+        60.0,
+        800,
+        5.0,
+    )
+    assert (c.acoustic.source_level_db, c.acoustic.noise_level_db) == (205.0, 35.0)
+    assert preset("blueview_p900_90").horizontal_fov_deg == 90.0
+    assert preset("blueview_p900_90").frequency_hz == 900e3
+    assert preset("blueview_p900_90").max_range == 100.0
+    assert preset("blueview_p900_90").ping_rate_hz == 15.0
+    with pytest.raises(ValueError, match="source_level_db"):
+        preset("msis", source_level_db=500.0)
