@@ -13,7 +13,14 @@ from .methods import (
     segment,
 )
 from .otsu import gray_histogram, otsu_threshold, otsu_threshold_hist, power_law, power_law_lut
-from .presets import PRESETS, SegmentationParams, get_preset, params_for_shape
+from .presets import (
+    PRESETS,
+    REGION_FILTERS,
+    SegmentationParams,
+    get_preset,
+    get_region_filter,
+    params_for_shape,
+)
 from .regions import (
     Region,
     RegionFilter,
@@ -37,6 +44,7 @@ from .scoring import (
 __all__ = [
     "METHODS",
     "PRESETS",
+    "REGION_FILTERS",
     "DetectionScore",
     "Region",
     "RegionFilter",
@@ -52,6 +60,7 @@ __all__ = [
     "extract_regions",
     "fill_holes",
     "get_preset",
+    "get_region_filter",
     "gray_histogram",
     "improved_otsu",
     "kapur_entropy_curve",

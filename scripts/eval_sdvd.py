@@ -1,0 +1,110 @@
+"""Evaluate the improved Otsu TSM and the four baselines on the real SDVD effigy tiles.
+
+Prints, for the tune half, the held-out test half and the full set (see
+``slam.frontend.segmentation.evaluation`` for the split and the scoring rules): per method
+the effigy hit rate (positive tiles with a detected centroid inside the mask), PPV and
+FPR of the detections (positives + negatives), detections per positive / negative tile,
+negative tiles with any detection, and the summed confusion matrix [[TP FN] [FP TN]].
+
+    python scripts/eval_sdvd.py [--data DIR] [--preset sdvd] [--filter sdvd|none]
+                                [--tol PX] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+from slam.frontend.segmentation import (  # noqa: E402
+    METHODS,
+    PRESETS,
+    REGION_FILTERS,
+    get_preset,
+    get_region_filter,
+)
+from slam.frontend.segmentation.evaluation import evaluate, load_sdvd  # noqa: E402
+
+
+def _f(v, nd=3) -> str:
+    return "  n/a" if v is None else f"{v:.{nd}f}"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--data", default=str(REPO.parent / "shared" / "data" / "sdvd"))
+    ap.add_argument("--preset", default="sdvd", choices=(*PRESETS, "auto"))
+    ap.add_argument("--filter", default="sdvd", choices=tuple(REGION_FILTERS))
+    ap.add_argument(
+        "--tol", type=float, default=0.0, help="centroid tolerance px (0 = inside mask)"
+    )
+    ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    data = Path(args.data)
+    if not data.is_dir():
+        print(f"eval_sdvd: {str(data)!r} not found (../shared/data/sdvd)", file=sys.stderr)
+        return 2
+    methods = [m for m in args.methods.split(",") if m]
+    for m in methods:
+        if m not in METHODS:
+            ap.error(f"--methods: {m!r} unknown; allowed {', '.join(METHODS)}")
+    tiles = load_sdvd(data)
+    rf = get_region_filter(args.filter)
+    region_filter = None if rf.is_identity else rf
+    params = get_preset(args.preset, (256, 256))
+    splits = {
+        "tune": [t for t in tiles if t.split == "tune"],
+        "test": [t for t in tiles if t.split == "test"],
+        "all": tiles,
+    }
+    out = {
+        "data": str(data),
+        "preset": params.name,
+        "a_px": params.a_px,
+        "n_max": params.n_max,
+        "region_filter": rf.to_dict(),
+        "tol_px": args.tol,
+        "splits": {},
+    }
+    for name, ts in splits.items():
+        out["splits"][name] = {
+            "n_positive": sum(t.positive for t in ts),
+            "n_negative": sum(not t.positive for t in ts),
+            "methods": {
+                m: evaluate(ts, m, params, region_filter, tol_px=args.tol).to_dict()
+                for m in methods
+            },
+        }
+    if args.json:
+        print(json.dumps(out, indent=1))
+        return 0
+    print(
+        f"SDVD effigy tiles: preset {params.name} (a={params.a_px}, N_max={params.n_max}), "
+        f"region filter {args.filter} {rf.to_dict()}, tolerance {args.tol} px"
+    )
+    for name, s in out["splits"].items():
+        print(f"\n== {name}: {s['n_positive']} positive, {s['n_negative']} negative tiles ==")
+        print(
+            f"{'method':14s} {'hit':>6s} {'PPV':>6s} {'FPR':>6s} {'det/pos':>8s} {'det/neg':>8s} "
+            f"{'neg w/det':>9s} {'ms':>6s}  [[TP FN] [FP TN]]"
+        )
+        for m, e in s["methods"].items():
+            cm = e["confusion_matrix"]
+            print(
+                f"{m:14s} {_f(e['hit_rate'])} {_f(e['ppv'])} {_f(e['fpr'])} "
+                f"{_f(e['detections_per_positive_tile'], 2):>8s} "
+                f"{_f(e['detections_per_negative_tile'], 2):>8s} "
+                f"{e['negative_tiles_with_detections']:>4d}/{e['n_negative_tiles']:<4d} "
+                f"{e['mean_ms']:6.2f}  [[{cm[0][0]} {cm[0][1]}] [{cm[1][0]} {cm[1][1]}]]"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
