@@ -125,7 +125,7 @@ def test_tiny_images_do_not_crash():
 
 
 def test_load_errors(tmp_path):
-    with pytest.raises(ValueError, match="does not exist|not a file"):
+    with pytest.raises(ValueError, match=r"does not exist|not a file"):
         load_gray8(tmp_path / "missing.png")
     bad = tmp_path / "bad.png"
     bad.write_bytes(b"not a png")
