@@ -7,18 +7,21 @@ absorption, its mean echo intensity is
 
     E = SL · b_tx b_rx · ΔΩ · μ · refl · cos θ · r⁻² · 10^(−2 α r / 10)      [µPa²]
 
-(plus an optional near-normal specular lobe, see ``AcousticConfig.specular_db``)
-
-(b: one-way beam pattern at the ray's direction). The echo is spread uniformly over the
-ray footprint's range extent Δr = r · |n·∂d/∂θ| Δθ / |n·d| (exact for a locally planar
-surface), so adjacent rays tile the range axis without gaps and shadows appear where no
-footprint lands. Binning is a closed-form box splat done with one ``np.bincount`` and one
-``cumsum`` per image (hand-written: no library bins box footprints into range cells).
+(b: one-way beam pattern at the ray's direction; plus an optional near-normal specular
+lobe, see ``AcousticConfig.specular_db``). The echo is spread uniformly over the ray's
+range footprint: towards a neighbouring ray of the same fan that hit the same labelled
+surface, up to the midpoint of the two hits; elsewhere (fan ends, object edges) over the
+local-plane extent r · |n·∂d/∂θ| Δθ / |n·d|. Adjacent rays thus tile the range axis
+without gaps, and shadows appear where no footprint lands. Binning is a closed-form box
+splat done with one ``np.bincount`` and one ``cumsum`` per image (hand-written: no library
+bins box footprints into range cells).
 
 Labels per range cell: the id of the highest-priority class whose footprint covers it
 (object k ≥ 1 beats seabed 0 beats unlabelled geoms −2, e.g. vehicles; −1 = no return).
-Hit position per cell: energy-weighted mean of the covering rays' hit points of the winning
-class (NaN where the label is −1).
+Hit position per cell: for objects, the energy-weighted mean of the hit points of the
+object's rays covering the cell; for the background, the energy-weighted mean of the hits
+whose footprint centre is in the cell, interpolated along range between such cells (NaN
+where the label is −1).
 """
 
 from __future__ import annotations
