@@ -116,6 +116,13 @@ class Seabed:
     vertices: np.ndarray
     faces: np.ndarray
 
+    def to_trimesh(self):
+        """The seabed as a ``trimesh.Trimesh`` (world frame; not processed, so vertex and
+        face order match ``vertices``/``faces``)."""
+        import trimesh
+
+        return trimesh.Trimesh(self.vertices, self.faces, process=False)
+
     def height(self, xy: np.ndarray) -> np.ndarray:
         """Seabed z under points (N, 2), bilinear on the grid (= the mesh's triangles up to
         the diagonal split); points outside the grid take the nearest edge value."""

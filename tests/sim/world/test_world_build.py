@@ -337,3 +337,11 @@ def test_mass_override_scales_mass_inertia_and_trimmed_volume():
     assert w.model.body_subtreemass[w.vehicles["saga"].body_id] == pytest.approx(12.0)
     np.testing.assert_allclose(h.inertia, np.array([0.1515, 0.2078, 0.2378]) * 1.2)
     assert h.volume == pytest.approx(12.0 / w.water.density)
+
+
+def test_seabed_trimesh_is_a_single_upward_surface_of_the_grid_area():
+    """Area of the triangulated grid = Lx·Ly / cos(slope) for a plane; normals point up."""
+    sb = generate_seabed(small("slope", slope_deg=10.0, roughness=0.0))
+    m = sb.to_trimesh()
+    assert m.area == pytest.approx(40.0 * 30.0 / np.cos(np.deg2rad(10.0)), rel=1e-9)
+    assert (m.face_normals[:, 2] > 0).all()
