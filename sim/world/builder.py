@@ -436,6 +436,8 @@ def build_world(spec: WorldSpec) -> World:
         child = mujoco.MjSpec.from_file(str(vm.xml_path))
         for key in list(child.keys):
             child.delete(key)
+        for act in list(child.actuators):  # viewer-only motors: thrust goes through sim.thrusters
+            child.delete(act)
         if vs.mass is not None:
             base = child.body("base")
             scale = float(vs.mass) / base.mass

@@ -97,3 +97,20 @@ def test_sensor_sites_exist_and_rays_from_them_miss_the_own_hull(kind):
     # sites carry the body orientation
     for sid in v.site_ids.values():
         np.testing.assert_allclose(d.site_xmat[sid].reshape(3, 3), rot, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", list(REFERENCE))
+def test_standalone_motors_push_like_the_thruster_model(kind):
+    """The viewer-only motors of the stand-alone scene and sim.thrusters use the same site
+    axes: 1 N on motor i gives MuJoCo's generalized force = configuration column i."""
+    m = mujoco.MjModel.from_xml_path(str(ASSETS / kind / "scene.xml"))
+    d = mujoco.MjData(m)
+    w = build_world(WorldSpec(seabed=SMALL, vehicles=(kind,)))
+    names = w.vehicles[kind].thruster_names
+    for i in range(m.nu):
+        d.ctrl[:] = 0.0
+        d.ctrl[i] = 1.0
+        mujoco.mj_forward(m, d)  # home keyframe not applied: identity attitude, body = world axes
+        col = w.thrusters.columns[names.index(m.actuator(i).name)]
+        np.testing.assert_allclose(d.qfrc_actuator[:6], col, atol=1e-12)
+    assert w.model.nu == 0  # sim.world strips them
