@@ -107,6 +107,8 @@ def run(args: argparse.Namespace) -> int:
             shard_frames=args.shard_frames,
             segmentation=args.segmentation,
             save_linear=args.npy,
+            min_objects=args.min_objects,
+            spread=not args.no_spread,
             overrides=parse_overrides(args.overrides),
             licence=args.licence,
         )

@@ -10,7 +10,8 @@ simulation of the scenario seeded by child k of ``numpy.random.SeedSequence(seed
 split depends only on the settings, never on the number of workers, so 1, 2 or K workers
 (local or Ray) produce the same files. Shard k starts recording after flying the first
 ``k / n_shards`` of the scenario (guidance + physics only, no sonar), so the shards cover
-the whole mission instead of all imaging its first minute.
+the whole mission instead of all imaging its first minute (``spread=False``: all start at
+t = 0). ``min_objects`` keeps only frames showing that many objects.
 """
 
 from __future__ import annotations
@@ -52,7 +53,10 @@ class DatasetConfig:
     fls_interval_s : simulated seconds between two exported FLS frames (> 0; the sonar
                      pings at its own rate, every round(interval x rate)-th ping is kept).
     shard_frames   : frames per shard (the unit of parallel work and of resume), >= 1.
-    segmentation   : COCO instance masks as "rle" (pixel-exact) or "polygon" (contours).
+    segmentation   : COCO instance masks as "rle" (pixel-exact) or "polygon" (pixel-edge
+                     contours, exact for hole-free masks).
+    min_objects    : keep only frames showing at least this many objects (0: keep all).
+    spread         : start shard k after k/n_shards of the mission (True) or all at t = 0.
     save_linear    : also write float32 .npy linear intensity (µPa² after TVG) per image.
     overrides      : dotted scenario overrides, e.g. (("vehicles[0].sonars[0].overrides.samples_per_side", 200),).
     licence        : licence named in the dataset card and the COCO ``licenses``.
@@ -68,6 +72,8 @@ class DatasetConfig:
     shard_frames: int = 16
     segmentation: str = "rle"
     save_linear: bool = False
+    min_objects: int = 0
+    spread: bool = True
     overrides: tuple[tuple[str, Any], ...] = field(default_factory=tuple)
     licence: str = "CC-BY-4.0"
 
@@ -95,6 +101,10 @@ class DatasetConfig:
             raise _bad("shard_frames", self.shard_frames, "an integer >= 1")
         if self.segmentation not in SEGMENTATIONS:
             raise _bad("segmentation", self.segmentation, ", ".join(SEGMENTATIONS))
+        if not _is_int(self.min_objects) or self.min_objects < 0:
+            raise _bad("min_objects", self.min_objects, "an integer >= 0")
+        if not isinstance(self.spread, bool):
+            raise _bad("spread", self.spread, "True or False")
         if not isinstance(self.overrides, tuple) or any(
             not (isinstance(kv, tuple) and len(kv) == 2 and isinstance(kv[0], str))
             for kv in self.overrides
@@ -161,7 +171,8 @@ def plan_shards(
     """The shards of a dataset.
 
     duration_s     : the scenario's simulated duration, s (shard offsets spread over it).
-    frame_period_s : expected simulated seconds per frame (for the offsets only).
+    frame_period_s : expected simulated seconds per frame (for the offsets only; with
+                     ``min_objects`` frames come slower, and shards may overlap in time).
     """
     n = cfg.n_shards
     seeds = shard_seeds(cfg.seed, n)
@@ -170,7 +181,7 @@ def plan_shards(
     for k in range(n):
         first = k * cfg.shard_frames
         count = min(cfg.shard_frames, cfg.frames - first)
-        span = max(0.0, duration_s - count * frame_period_s)
+        span = max(0.0, duration_s - count * frame_period_s) if cfg.spread else 0.0
         offset = round(k / n * span, 3)
         jobs.append(ShardJob(k, first, count, seeds[k], offset, scenario_data, cfg, h))
     return jobs

@@ -103,9 +103,14 @@ def run_shard(job: ShardJob, out_dir: str) -> dict:
     class_of = {o["id"]: o["class"] for o in objects}
     period = frame_period(scn, cfg.sonar_kinds, cfg.tile_pings, cfg.fls_interval_s)
     images: list[dict] = []
-    for fr in sim.frames(
-        job.n_frames, job.offset_s, max_sim_s=max(600.0, 50.0 * job.n_frames * period)
-    ):
+    accept = None
+    if cfg.min_objects > 0:
+
+        def accept(fr) -> bool:
+            return np.unique(fr.labels[fr.labels > 0]).size >= cfg.min_objects
+
+    max_sim = max(600.0, 50.0 * job.n_frames * period, 2.0 * scn.duration_s)
+    for fr in sim.frames(job.n_frames, job.offset_s, max_sim_s=max_sim, accept=accept):
         gidx = job.first_frame + fr.index
         views = []
         if fr.kind == "sss":

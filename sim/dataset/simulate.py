@@ -16,7 +16,7 @@ off on the instance, and the display image is made afterwards with the same
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -176,10 +176,15 @@ class ShardSimulation:
         return list(self.run.world.objects)
 
     def frames(
-        self, n_frames: int, offset_s: float = 0.0, max_sim_s: float | None = None
+        self,
+        n_frames: int,
+        offset_s: float = 0.0,
+        max_sim_s: float | None = None,
+        accept: Callable[[SonarFrame], bool] | None = None,
     ) -> Iterator[SonarFrame]:
         """Yield ``n_frames`` frames in time order, recording from ``offset_s`` on (the
-        vehicles fly there first, no sonar). Raises RuntimeError if fewer frames come
+        vehicles fly there first, no sonar). ``accept`` (optional) filters frames; only
+        accepted ones count and are numbered. Raises RuntimeError if fewer frames come
         within ``max_sim_s`` simulated seconds after the offset."""
         run, w, tracks = self.run, self.run.world, self.tracks
         dt_c = self.scn.control_dt
@@ -202,8 +207,9 @@ class ShardSimulation:
         while produced < n_frames:
             if w.time > limit:
                 raise RuntimeError(
-                    f"only {produced} of {n_frames} frames in {w.time - t0:.0f} s of "
-                    f"simulation after the offset {offset_s:g} s"
+                    f"only {produced} of {n_frames} frames"
+                    + (" passed the frame filter" if accept is not None else "")
+                    + f" in {w.time - t0:.0f} s of simulation after the offset {offset_s:g} s"
                 )
             guide()
             t_end = w.time + dt_c
@@ -217,7 +223,7 @@ class ShardSimulation:
                     w.step(n)
                 frame = _fire(tr, w, produced, self.tile_pings)
                 tr.next_t += tr.period
-                if frame is not None:
+                if frame is not None and (accept is None or accept(frame)):
                     yield frame
                     produced += 1
                     if produced >= n_frames:

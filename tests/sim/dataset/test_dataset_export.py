@@ -369,3 +369,16 @@ def test_killed_export_keeps_finished_shard_and_resumes(scene, serial, tmp_path)
     assert res.shards_resumed == [0] and res.shards_done == [1]
     assert not list(d.rglob("*.tmp"))
     assert _files(d) == _files(serial)
+
+
+def test_min_objects_keeps_only_frames_with_objects(scene, tmp_path):
+    """With min_objects = 1 every image has an annotation; the vehicle starts 10 m before
+    the first object, so the first kept tile (16 pings at 10 Hz, centre at 0.8 s if none
+    were skipped) comes later than 2 s."""
+    build_dataset(
+        _cfg(scene, kind="sss", frames=2, shard_frames=2, min_objects=1), tmp_path, progress=False
+    )
+    coco = json.loads((tmp_path / "annotations.json").read_text())
+    assert len(coco["images"]) == 2
+    assert {a["image_id"] for a in coco["annotations"]} == {1, 2}
+    assert coco["images"][0]["time_s"] > 2.0
