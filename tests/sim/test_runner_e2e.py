@@ -11,21 +11,25 @@ from sim.runner import OutputExistsError, run_scenario
 from sim.scenario import load_scenario
 from sim.viz.rerun_log import read_component, read_recording
 
-#: CI size: 400 samples per side instead of 1000 (same 40 m range); the first survey leg
-#: passes the rock at (-30, -16) and the wreck at (10, -12), 18 m to port.
+#: CI size: 400 samples per side instead of 1000 (same 40 m range) and a shorter first
+#: leg (x from -45 m): it passes the rock at (-30, -16) and the wreck at (10, -12), 18 m
+#: to port, within 55 s.
 SMALL_SSS = {
     "vehicles[0].sonars[0].overrides": {
         "max_range": 40.0,
         "samples_per_side": 400,
         "range_resolution": 0.05,
-    }
+    },
+    "vehicles[0].mission.size_m": [90.0, 60.0],
+    "vehicles[0].start.position": [-45.0, -30.0, -22.0],
 }
+CI_DURATION = 55.0
 
 
 @pytest.fixture(scope="module")
 def survey(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs") / "shipwreck"
-    scn = load_scenario("shipwreck-survey", SMALL_SSS).with_overrides(duration_s=85.0)
+    scn = load_scenario("shipwreck-survey", SMALL_SSS).with_overrides(duration_s=CI_DURATION)
     return run_scenario(scn, out, progress=False)
 
 
@@ -75,7 +79,7 @@ def test_recording_reads_back_with_expected_entities(survey):
     objs = [e for e in ents if e.startswith("/world/objects/")]
     assert len(objs) == len(survey.metrics["objects"]) and all(ents[e].static for e in objs)
     # vehicle pose logged every 0.5 s of sim time
-    assert ents["/world/alister9"].rows == pytest.approx(85.0 / 0.5, abs=2)
+    assert ents["/world/alister9"].rows == pytest.approx(CI_DURATION / 0.5, abs=2)
     n_lm = [v[0] for v in read_component(p, "metrics/alister9/slam/n_landmarks", "Scalars:scalars")]
     assert n_lm[-1] == survey.metrics["vehicles"]["alister9"]["landmarks"]["n_estimated"]
 
@@ -83,7 +87,7 @@ def test_recording_reads_back_with_expected_entities(survey):
 def test_outputs_complete_and_figures(survey):
     d = survey.out_dir
     m = json.loads((d / "metrics.json").read_text())
-    assert m["complete"] is True and m["sim_time_s"] == pytest.approx(85.0)
+    assert m["complete"] is True and m["sim_time_s"] == pytest.approx(CI_DURATION)
     assert (d / "trajectory_map.png").stat().st_size > 5000
     assert (d / "sss_mosaic.png").stat().st_size > 5000
     assert not list(d.parent.glob(f".{d.name}.partial*"))
@@ -138,3 +142,19 @@ def test_interrupted_run_is_marked_incomplete_and_recording_readable(tmp_path):
     assert not list(tmp_path.glob(".cut.partial*"))
     with pytest.raises(OutputExistsError):
         run_scenario(scn, tmp_path / "cut", progress=False)
+
+
+@pytest.mark.slow
+def test_full_default_survey_maps_every_object_once(tmp_path):
+    """The full default run (420 s, 2 x 1000 samples; ~2-3 min): every object detected,
+    one landmark per object, landmark RMSE < 2.5 m (the wreck's highlight sits on its
+    sonar-facing side, up to half its width + a few m from the base centre), NEES bounds
+    as in the CI variant."""
+    res = run_scenario(load_scenario("shipwreck-survey"), tmp_path / "full", progress=False)
+    v = res.metrics["vehicles"]["alister9"]
+    assert v["detections"]["recall_objects"] == 1.0 and v["detections"]["ppv"] >= 0.8
+    lm, po = v["landmarks"], v["pose"]
+    assert lm["n_true_mapped"] == lm["n_objects_imaged"] == len(res.metrics["objects"])
+    assert lm["n_duplicated_objects"] == 0 and lm["n_spurious"] == 0
+    assert lm["rmse_m"] < 2.5 and lm["landmark_nees_mean"] < 5.99
+    assert po["nees_mean"] < 9.35 and po["nees_in_95_interval"] >= 0.8
