@@ -16,7 +16,7 @@ MASK_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".pgm")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from slam.frontend.segmentation import METHODS, PRESETS
+    from slam.frontend.segmentation import METHODS, PRESETS, REGION_FILTERS
 
     parser.add_argument("images", nargs="+", metavar="IMAGE", help="PNG/JPG/TIFF image files")
     parser.add_argument(
@@ -46,15 +46,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="treat each mask as one object (default: each 8-connected component)",
     )
-    parser.add_argument("--min-area", type=int, default=0, help="region filter: min area px")
     parser.add_argument(
-        "--max-area", type=float, default=math.inf, help="region filter: max area px"
+        "--filter",
+        default="none",
+        choices=tuple(REGION_FILTERS),
+        help="landmark filter preset applied after Algorithm 2 (default none); the options "
+        "below override its fields",
+    )
+    parser.add_argument("--min-area", type=int, default=None, help="region filter: min area px")
+    parser.add_argument("--max-area", type=float, default=None, help="region filter: max area px")
+    parser.add_argument(
+        "--max-elongation", type=float, default=None, help="region filter: max major/minor"
     )
     parser.add_argument(
-        "--max-elongation", type=float, default=math.inf, help="region filter: max major/minor"
-    )
-    parser.add_argument(
-        "--max-count", type=int, default=0, help="region filter: keep the N largest (0 = all)"
+        "--max-count", type=int, default=None, help="region filter: keep the N largest (0 = all)"
     )
     parser.add_argument(
         "--overlay",
@@ -110,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
         METHODS,
         RegionFilter,
         get_preset,
+        get_region_filter,
         load_gray8,
         load_mask,
         score_result,
@@ -119,11 +125,15 @@ def run(args: argparse.Namespace) -> int:
 
     methods = list(METHODS) if args.method == "all" else [args.method]
     try:
+        base = get_region_filter(args.filter)
+        overrides = {
+            "min_area_px": args.min_area,
+            "max_area_px": args.max_area,
+            "max_elongation": args.max_elongation,
+            "max_count": args.max_count,
+        }
         region_filter = RegionFilter(
-            min_area_px=args.min_area,
-            max_area_px=args.max_area,
-            max_elongation=args.max_elongation,
-            max_count=args.max_count,
+            **{k: (getattr(base, k) if v is None else v) for k, v in overrides.items()}
         )
     except ValueError as exc:
         print(f"undersea segment: {exc}", file=sys.stderr)
@@ -184,6 +194,7 @@ def run(args: argparse.Namespace) -> int:
             json.dumps(
                 {
                     "preset": args.preset,
+                    "filter": args.filter,
                     "region_filter": region_filter.to_dict(),
                     "tol_px": args.tol,
                     "images": records,

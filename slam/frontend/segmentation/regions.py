@@ -74,6 +74,13 @@ class Region:
         return (self.centroid_rc[1], self.centroid_rc[0])
 
     @property
+    def extent_rc(self) -> tuple[int, int]:
+        """(height, width) of the bounding box, pixels (the region's extent for the
+        observation model's covariance)."""
+        r0, c0, r1, c1 = self.bbox
+        return (r1 - r0, c1 - c0)
+
+    @property
     def elongation(self) -> float:
         """major / minor axis length (>= 1; ``inf`` for a one-pixel-wide line)."""
         if self.minor_axis_px <= 0:
@@ -93,6 +100,7 @@ class Region:
             "centroid_rc": [round(self.centroid_rc[0], 3), round(self.centroid_rc[1], 3)],
             "centroid_xy": [round(self.centroid_rc[1], 3), round(self.centroid_rc[0], 3)],
             "bbox": list(self.bbox),
+            "extent_rc": list(self.extent_rc),
             "major_axis_px": round(self.major_axis_px, 3),
             "minor_axis_px": round(self.minor_axis_px, 3),
         }

@@ -28,12 +28,8 @@ def test_segment_json_with_masks_and_overlay(tmp_path, capsys):
             "--masks",
             str(TILES / "positive" / "masks"),
             "--merge-components",
-            "--max-area",
-            "2000",
-            "--max-elongation",
-            "6",
-            "--max-count",
-            "8",
+            "--filter",
+            "sdvd",
             "--overlay",
             str(out_dir),
             "--json",
@@ -48,6 +44,7 @@ def test_segment_json_with_masks_and_overlay(tmp_path, capsys):
         assert r["score"]["confusion_matrix"][0][0] == r["score"]["tp"]
         assert len(r["landmarks"]) == r["n_landmarks"] <= 8
         assert Path(r["overlay"]).is_file()
+    assert data["region_filter"]["max_count"] == 8
     hits = sum(r["score"]["images_hit"] for r in recs)
     assert data["summary"]["improved-otsu"]["hit_rate"] == pytest.approx(hits / 4)
 
