@@ -81,6 +81,53 @@ def _coverage(rows, start, end, n_rows, n_bins):
     return np.cumsum(c.reshape(n_rows, stride), axis=1)[:, :n_bins]
 
 
+SUBBOX_BINS = 2.0  # wide footprints are split into sub-boxes of about this many bins
+MAX_SUBBOXES = 32
+
+
+def _log_density_slope(a, b, fc, energy, hit, r_bins, link):
+    """d ln(energy density)/d(bin) inside each ray's footprint.
+
+    From the neighbouring rays on the same surface (difference of the log box densities
+    over the distance between footprint centres, averaged over both sides), else the
+    spherical-spreading default −3/r (grazing seabed: echo per unit range ∝ r⁻³)."""
+    rho = np.log(np.maximum(energy / np.maximum(b - a, 1e-9), 1e-300))
+    default = -3.0 / np.maximum(r_bins, 1.0)
+    if link is None:
+        return default
+    dfc = fc[1:] - fc[:-1]
+    ok = link & (np.abs(dfc) > 1e-6)
+    d = np.where(ok, (rho[1:] - rho[:-1]) / np.where(ok, dfc, 1.0), 0.0)
+    tot = np.zeros_like(fc)
+    cnt = np.zeros_like(fc)
+    tot[:-1] += d
+    cnt[:-1] += ok
+    tot[1:] += d
+    cnt[1:] += ok
+    return np.where(cnt > 0, tot / np.maximum(cnt, 1), default)
+
+
+def _splat_shaped(rows, a, b, e, fc, slope, n_rows, n_bins):
+    """Like :func:`_splat_energy`, but a footprint wider than ``SUBBOX_BINS`` is split
+    into sub-boxes whose energies follow exp(slope·(x − fc)) (normalised per ray), so a
+    coarse fan's intensity follows the range law inside each footprint instead of stepping
+    between footprints."""
+    width = b - a
+    k = np.clip(np.ceil(width / SUBBOX_BINS), 1, MAX_SUBBOXES).astype(np.int64)
+    if k.size == 0 or k.max() == 1:
+        return _splat_energy(rows, a, b, e, n_rows, n_bins)
+    rep = np.repeat(np.arange(k.size), k)
+    first = np.repeat(np.cumsum(k) - k, k)
+    j = np.arange(rep.size) - first
+    step = (width / k)[rep]
+    sa = a[rep] + j * step
+    sb = sa + step
+    x = np.clip(slope[rep] * (0.5 * (sa + sb) - fc[rep]), -30.0, 30.0)
+    w = np.exp(x)
+    w /= np.bincount(rep, w, minlength=k.size)[rep]
+    return _splat_energy(rows[rep], sa, sb, e[rep] * w, n_rows, n_bins)
+
+
 def form_echo(
     hits: RayHits,
     origin: np.ndarray,
@@ -110,7 +157,7 @@ def form_echo(
     spaced rays at the cost of blurring edges by half a footprint).
     neighbours: optional bool (N − 1,): True where rays j and j + 1 are consecutive along
     the sampled fan angle. Where such a neighbour hit the same labelled surface, the footprint side
-    towards it reaches the midpoint of the two hits' ranges instead of using the local
+    towards it reaches their shared cell edge (range interpolated in angle) instead of the local
     plane: for coarse fans (FLS, MSIS) over textured seabeds (ripples) the local normal
     says little about where the next ray lands.
 
@@ -146,12 +193,17 @@ def form_echo(
     b = fc + 0.5 * ext
     lab = np.where(hit, geom_object_id[g], -1).astype(np.int32)
     lab[hit & (lab < 0)] = -2
+    link = None
     if neighbours is not None:
         # link j–(j+1): consecutive rays of one fan that hit the same labelled surface; the
-        # footprint side facing the neighbour ends at the midpoint of the two ranges
+        # footprint side facing the neighbour ends where their shared angular cell edge
+        # lands, range interpolated linearly in angle: a fraction Δθ_j / (Δθ_j + Δθ_j+1)
+        # of the way (rays sit at their cells' centres; |d_dirs| = Δθ)
         link = neighbours & hit[:-1] & hit[1:] & (lab[:-1] == lab[1:])
         f0, f1 = fc[:-1], fc[1:]
-        mid = 0.5 * (f0 + f1)
+        w = np.sqrt(np.einsum("ij,ij->i", d_dirs, d_dirs))
+        t = w[:-1] / np.maximum(w[:-1] + w[1:], 1e-300)
+        mid = f0 + t * (f1 - f0)
         up = link & (f1 > f0)  # range grows towards j+1
         dn = link & (f1 <= f0)
         half = 0.5 * MIN_EXTENT_BINS
@@ -163,10 +215,11 @@ def form_echo(
     any_obj = bool(is_obj.any())
     bg = hit & ~is_obj if any_obj else hit
 
+    slope = _log_density_slope(a, b, fc, energy, hit, r / bin_width, link)
     if any_obj:
-        mean = _splat_energy(rows[bg], a[bg], b[bg], energy[bg], n_rows, n_bins)
+        mean = _splat_shaped(rows[bg], a[bg], b[bg], energy[bg], fc[bg], slope[bg], n_rows, n_bins)
     else:
-        mean = _splat_energy(rows, a, b, energy, n_rows, n_bins)
+        mean = _splat_shaped(rows, a, b, energy, fc, slope, n_rows, n_bins)
     start = np.clip(np.floor(a), 0, n_bins).astype(np.int64)
     end = np.clip(np.ceil(b), 0, n_bins).astype(np.int64)
     labels = np.full((n_rows, n_bins), -1, np.int32)

@@ -116,7 +116,7 @@ class SonarMount:
             )
         )
         # rays slightly beyond max_range still spread part of their footprint inside it
-        self.cutoff = 1.02 * config.max_range
+        self.cutoff = 1.25 * config.max_range
 
     def pose(self, data: mujoco.MjData, site: int) -> tuple[np.ndarray, np.ndarray]:
         """Site position (3,) and rotation (3, 3) world-from-sensor (columns = sensor axes)."""

@@ -160,7 +160,7 @@ class SideScanSonar:
         edges = [self.uniform_theta, [np.pi / 2]]
         if np.isfinite(altitude) and altitude < self.mount.cutoff:
             r0 = max(altitude, c.min_range)
-            r1 = self.mount.cutoff
+            r1 = 1.02 * c.max_range  # rays further out come from the 0.5° grid
             n = int(np.ceil(c.ray_oversampling * (r1 - r0) / self.bin_width)) + 1
             r = np.linspace(r0, r1, n)
             edges.append(np.arcsin(np.clip(altitude / r, -1.0, 1.0)))
