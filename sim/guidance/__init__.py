@@ -9,6 +9,8 @@ from sim.guidance.gains import (
     VehiclePlant,
     design_gains,
     max_wrench,
+    max_wrench_from_columns,
+    split_authority,
 )
 from sim.guidance.los import LOSResult, integral_los_rate, los_guidance, wrap
 from sim.guidance.missions import (
@@ -21,6 +23,13 @@ from sim.guidance.missions import (
     straight_line,
 )
 from sim.guidance.pid import PID, PIDGains
+from sim.guidance.world_adapter import (
+    autopilot_for,
+    bounds_from_world,
+    check_mission_in_world,
+    gains_for,
+    plant_for,
+)
 
 __all__ = [
     "NOMINAL_SPEED",
@@ -33,7 +42,11 @@ __all__ = [
     "PIDGains",
     "VehiclePlant",
     "WorldBounds",
+    "autopilot_for",
+    "bounds_from_world",
+    "check_mission_in_world",
     "design_gains",
+    "gains_for",
     "hold",
     "integral_los_rate",
     "lawnmower",
@@ -41,6 +54,9 @@ __all__ = [
     "loop",
     "los_guidance",
     "max_wrench",
+    "max_wrench_from_columns",
+    "plant_for",
+    "split_authority",
     "straight_line",
     "wrap",
 ]
