@@ -25,6 +25,13 @@ def _files(root: Path) -> dict[str, bytes]:
     }
 
 
+def _sources() -> dict[str, bytes]:
+    """The simulator's sources: if they change during the benchmark (someone editing the
+    working tree), byte identity across modes cannot be expected."""
+    root = Path(__file__).resolve().parents[1] / "sim"
+    return {str(p): p.read_bytes() for p in sorted(root.rglob("*.py"))}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="undersea bench dataset")
     ap.add_argument("--scenario", default="shipwreck-survey")
@@ -76,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         "warmup_sim_s": round(sum(j.offset_s for j in jobs), 3),
     }
     outputs = {}
+    src0 = _sources()
     with tempfile.TemporaryDirectory() as tmp:
         for name, kw in modes:
             res = build_dataset(cfg, Path(tmp) / name, progress=False, **kw)
@@ -87,6 +95,10 @@ def main(argv: list[str] | None = None) -> int:
     base = figures["serial_frames_per_s"]
     for name, _ in modes[1:]:
         figures[f"{name}_speedup"] = figures[f"{name}_frames_per_s"] / base
+    src1 = _sources()
+    figures["sources_changed_during_bench"] = sorted(
+        Path(k).name for k in set(src0) | set(src1) if src0.get(k) != src1.get(k)
+    )
     ref = outputs["serial"]
     figures["identical_bytes_across_modes"] = all(o == ref for o in outputs.values())
     figures["differing_files"] = sorted(

@@ -57,6 +57,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--npy", action="store_true", help="also write float32 linear intensity .npy files"
     )
     parser.add_argument(
+        "--min-objects",
+        type=int,
+        default=0,
+        help="keep only frames showing at least this many objects (default 0: all frames)",
+    )
+    parser.add_argument(
+        "--no-spread",
+        action="store_true",
+        help="start every shard at t = 0 instead of spreading shards over the mission",
+    )
+    parser.add_argument(
         "--set",
         dest="overrides",
         action="append",
