@@ -35,6 +35,29 @@ def _f(v, nd=3) -> str:
     return "  n/a" if v is None else f"{v:.{nd}f}"
 
 
+def write_figure(path: Path, tiles, params, region_filter, n: int) -> None:
+    """Montage rows: grey tile | improved Otsu overlay | max-entropy overlay."""
+    import cv2
+    import numpy as np
+
+    from sim.cli.segment_cmd import overlay_image
+    from slam.frontend.segmentation import segment
+
+    pos = [t for t in tiles if t.positive]
+    neg = [t for t in tiles if not t.positive]
+    step = max(1, len(pos) // max(n - 2, 1))
+    chosen = pos[::step][: max(n - 2, 1)] + neg[:: max(1, len(neg) // 2)][:2]
+    rows = []
+    for t in chosen:
+        panels = [cv2.cvtColor(t.image, cv2.COLOR_GRAY2BGR)]
+        for m in ("improved-otsu", "kapur"):
+            res = segment(t.image, m, params, region_filter)
+            panels.append(overlay_image(t.image, res, t.mask if t.positive else None))
+        rows.append(np.hstack(panels))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(path), np.vstack(rows))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", default=str(REPO.parent / "shared" / "data" / "sdvd"))
@@ -45,6 +68,14 @@ def main(argv=None) -> int:
     )
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--json", action="store_true")
+    ap.add_argument(
+        "--figure",
+        default=None,
+        metavar="OUT.png",
+        help="write a montage of test-half tiles: image | improved Otsu | max entropy "
+        "(mask tinted green, landmarks magenta, effigy outline red)",
+    )
+    ap.add_argument("--figure-tiles", type=int, default=8, help="tiles in the montage")
     args = ap.parse_args(argv)
     data = Path(args.data)
     if not data.is_dir():
@@ -81,6 +112,9 @@ def main(argv=None) -> int:
                 for m in methods
             },
         }
+    if args.figure:
+        write_figure(Path(args.figure), splits["test"], params, region_filter, args.figure_tiles)
+        out["figure"] = args.figure
     if args.json:
         print(json.dumps(out, indent=1))
         return 0
@@ -103,6 +137,8 @@ def main(argv=None) -> int:
                 f"{e['negative_tiles_with_detections']:>4d}/{e['n_negative_tiles']:<4d} "
                 f"{e['mean_ms']:6.2f}  [[{cm[0][0]} {cm[0][1]}] [{cm[1][0]} {cm[1][1]}]]"
             )
+    if args.figure:
+        print(f"\nfigure: {args.figure} (rows: tile | improved Otsu | max entropy)")
     return 0
 
 
