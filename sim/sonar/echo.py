@@ -85,47 +85,68 @@ SUBBOX_BINS = 2.0  # wide footprints are split into sub-boxes of about this many
 MAX_SUBBOXES = 32
 
 
-def _log_density_slope(a, b, fc, energy, hit, r_bins, link):
-    """d ln(energy density)/d(bin) inside each ray's footprint.
+def _log_density_slope(idx, a, b, fc, energy, r_bins, link):
+    """d ln(energy density)/d(bin) inside the footprints of rays ``idx``.
 
     From the neighbouring rays on the same surface (difference of the log box densities
     over the distance between footprint centres, averaged over both sides), else the
     spherical-spreading default −3/r (grazing seabed: echo per unit range ∝ r⁻³)."""
-    rho = np.log(np.maximum(energy / np.maximum(b - a, 1e-9), 1e-300))
-    default = -3.0 / np.maximum(r_bins, 1.0)
-    if link is None:
+    default = -3.0 / np.maximum(r_bins[idx], 1.0)
+    if link is None or idx.size == 0:
         return default
-    dfc = fc[1:] - fc[:-1]
-    ok = link & (np.abs(dfc) > 1e-6)
-    d = np.where(ok, (rho[1:] - rho[:-1]) / np.where(ok, dfc, 1.0), 0.0)
-    tot = np.zeros_like(fc)
-    cnt = np.zeros_like(fc)
-    tot[:-1] += d
-    cnt[:-1] += ok
-    tot[1:] += d
-    cnt[1:] += ok
+    n = fc.size
+
+    def logrho(j):
+        return np.log(np.maximum(energy[j] / np.maximum(b[j] - a[j], 1e-9), 1e-300))
+
+    lr = logrho(idx)
+    tot = np.zeros(idx.size)
+    cnt = np.zeros(idx.size)
+    for side in (-1, 1):  # left and right neighbour (two passes, not per ray)
+        j = idx + side
+        inside = (j >= 0) & (j < n)
+        jj = np.clip(j, 0, n - 1)
+        pair = np.minimum(idx, jj)
+        ok = inside & link[np.clip(pair, 0, n - 2)]
+        dfc = fc[jj] - fc[idx]
+        ok &= np.abs(dfc) > 1e-6
+        tot += np.where(ok, (logrho(jj) - lr) / np.where(ok, dfc, 1.0), 0.0)
+        cnt += ok
     return np.where(cnt > 0, tot / np.maximum(cnt, 1), default)
 
 
-def _splat_shaped(rows, a, b, e, fc, slope, n_rows, n_bins):
+def _splat_shaped(rows, a, b, e, fc, r_bins, link, n_rows, n_bins):
     """Like :func:`_splat_energy`, but a footprint wider than ``SUBBOX_BINS`` is split
-    into sub-boxes whose energies follow exp(slope·(x − fc)) (normalised per ray), so a
-    coarse fan's intensity follows the range law inside each footprint instead of stepping
-    between footprints."""
+    into sub-boxes whose energies follow exp(slope·(x − fc)) (normalised per ray; slope
+    from :func:`_log_density_slope`), so a coarse fan's intensity follows the range law
+    inside each footprint instead of stepping between footprints. ``link`` refers to the
+    full ray arrays, which all the other arguments are."""
     width = b - a
     k = np.clip(np.ceil(width / SUBBOX_BINS), 1, MAX_SUBBOXES).astype(np.int64)
-    if k.size == 0 or k.max() == 1:
+    wide = np.flatnonzero(k > 1)
+    if wide.size == 0:
         return _splat_energy(rows, a, b, e, n_rows, n_bins)
-    rep = np.repeat(np.arange(k.size), k)
-    first = np.repeat(np.cumsum(k) - k, k)
+    slope = _log_density_slope(wide, a, b, fc, e, r_bins, link)
+    kw = k[wide]
+    rep = np.repeat(np.arange(wide.size), kw)
+    first = np.repeat(np.cumsum(kw) - kw, kw)
     j = np.arange(rep.size) - first
-    step = (width / k)[rep]
-    sa = a[rep] + j * step
+    src = wide[rep]
+    step = (width[wide] / kw)[rep]
+    sa = a[src] + j * step
     sb = sa + step
-    x = np.clip(slope[rep] * (0.5 * (sa + sb) - fc[rep]), -30.0, 30.0)
+    x = np.clip(slope[rep] * (0.5 * (sa + sb) - fc[src]), -30.0, 30.0)
     w = np.exp(x)
-    w /= np.bincount(rep, w, minlength=k.size)[rep]
-    return _splat_energy(rows[rep], sa, sb, e[rep] * w, n_rows, n_bins)
+    w /= np.bincount(rep, w, minlength=wide.size)[rep]
+    narrow = np.flatnonzero(k == 1)
+    return _splat_energy(
+        np.concatenate([rows[narrow], rows[src]]),
+        np.concatenate([a[narrow], sa]),
+        np.concatenate([b[narrow], sb]),
+        np.concatenate([e[narrow], e[src] * w]),
+        n_rows,
+        n_bins,
+    )
 
 
 def form_echo(
@@ -215,11 +236,8 @@ def form_echo(
     any_obj = bool(is_obj.any())
     bg = hit & ~is_obj if any_obj else hit
 
-    slope = _log_density_slope(a, b, fc, energy, hit, r / bin_width, link)
-    if any_obj:
-        mean = _splat_shaped(rows[bg], a[bg], b[bg], energy[bg], fc[bg], slope[bg], n_rows, n_bins)
-    else:
-        mean = _splat_shaped(rows, a, b, energy, fc, slope, n_rows, n_bins)
+    e_bg = energy if not any_obj else np.where(bg, energy, 0.0)  # objects are added below
+    mean = _splat_shaped(rows, a, b, e_bg, fc, r / bin_width, link, n_rows, n_bins)
     start = np.clip(np.floor(a), 0, n_bins).astype(np.int64)
     end = np.clip(np.ceil(b), 0, n_bins).astype(np.int64)
     labels = np.full((n_rows, n_bins), -1, np.int32)
