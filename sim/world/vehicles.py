@@ -12,7 +12,7 @@ fraction, V = m (1 + f) / ρ, with the centre of buoyancy at ``r_cb``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -57,7 +57,6 @@ class VehicleModel:
     added_mass: tuple[float, ...] | None = None  # published diag (6,), else Lamb ellipsoid
     linear_damping: tuple[float, ...] | None = None  # published (6,), else derived
     quadratic_damping: tuple[float, ...] | None = None  # published (6,), else derived
-    notes: dict[str, str] = field(default_factory=dict)
 
     @property
     def xml_path(self) -> Path:
