@@ -104,6 +104,7 @@ class ThrusterBank:
         # stacked configuration: tau (N,6) = sum over channels of column * force
         self._scatter = np.zeros((self.n_vehicles, self.n))
         self._scatter[self.owner, np.arange(self.n)] = 1.0
+        self._pinv_cache: dict = {}
         self._fin_idx = np.flatnonzero(self.is_fin)
         self._fin_owner = self.owner[self._fin_idx]
         self._fin_cols = self.columns[self._fin_idx]
@@ -166,9 +167,18 @@ class ThrusterBank:
         lower = -self.f_rev[lo:hi]
         f = np.zeros(k)
         free = np.ones(k, dtype=bool)
-        for _ in range(k):  # redistributed pseudo-inverse
-            resid = t - b[:, ~free] @ f[~free]
-            f[free] = np.linalg.pinv(b[:, free], rcond=1e-6) @ resid
+        for it in range(k):  # redistributed pseudo-inverse
+            if it == 0:  # all channels free: the (cached, when finless) full pseudo-inverse
+                key = (vehicle, dofs.tobytes())
+                pinv = self._pinv_cache.get(key) if not fin.any() else None
+                if pinv is None:
+                    pinv = np.linalg.pinv(b, rcond=1e-6)
+                    if not fin.any():
+                        self._pinv_cache[key] = pinv
+                f = pinv @ t
+            else:
+                resid = t - b[:, ~free] @ f[~free]
+                f[free] = np.linalg.pinv(b[:, free], rcond=1e-6) @ resid
             over = free & ((f > upper) | (f < lower))
             if not over.any():
                 break
