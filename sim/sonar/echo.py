@@ -47,6 +47,11 @@ class Echo:
     hit_position: np.ndarray
 
 
+def _dot3(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Row-wise dot product of (N, 3) arrays (column arithmetic: ~3× faster than einsum)."""
+    return u[:, 0] * v[:, 0] + u[:, 1] * v[:, 1] + u[:, 2] * v[:, 2]
+
+
 def _splat_energy(rows, a, b, e, n_rows, n_bins):
     """Box-splat energies e uniformly over fractional bin spans [a, b) of row ``rows``.
 
@@ -190,8 +195,8 @@ def form_echo(
     g = np.where(hit, hits.geom, 0)
     r = np.where(hit, hits.dist, 0.0)
     n = hits.normal
-    cos_i = np.abs(np.einsum("ij,ij->i", n, dirs))
-    ndd = np.abs(np.einsum("ij,ij->i", n, d_dirs))
+    cos_i = np.abs(_dot3(n, dirs))
+    ndd = np.abs(_dot3(n, d_dirs))
     rs = np.maximum(r, 1e-3)
     # Lambert μ cos²θ (μ folded into gain) plus the optional specular lobe, per area
     # r²ΔΩ/cosθ: E ∝ (μ cos²θ + σ_s(θ)) / cosθ
@@ -222,7 +227,7 @@ def form_echo(
         # of the way (rays sit at their cells' centres; |d_dirs| = Δθ)
         link = neighbours & hit[:-1] & hit[1:] & (lab[:-1] == lab[1:])
         f0, f1 = fc[:-1], fc[1:]
-        w = np.sqrt(np.einsum("ij,ij->i", d_dirs, d_dirs))
+        w = np.sqrt(_dot3(d_dirs, d_dirs))
         t = w[:-1] / np.maximum(w[:-1] + w[1:], 1e-300)
         mid = f0 + t * (f1 - f0)
         up = link & (f1 > f0)  # range grows towards j+1
@@ -248,11 +253,11 @@ def form_echo(
     labels[_coverage(rows[sb], start[sb], end[sb], n_rows, n_bins) > 0] = 0
 
     # background hit positions: centre cells, then interpolation along range
-    pos = origin[None, :] + dirs * r[:, None]
-    cc = np.clip(np.floor(fc).astype(np.int64), 0, n_bins - 1)
-    inr = bg & (fc >= 0) & (fc < n_bins)
-    cell = rows[inr] * n_bins + cc[inr]
+    inr = np.flatnonzero(bg & (fc >= 0) & (fc < n_bins))
+    cell = rows[inr] * n_bins + fc[inr].astype(np.int64)
     ew = energy[inr] + 1e-300
+    ewr = ew * r[inr]
+    d_in = dirs[inr]
     size = n_rows * n_bins
     den = np.bincount(cell, ew, minlength=size)
     hitpos = np.full((size, 3), np.nan)
@@ -263,8 +268,8 @@ def form_echo(
         known = np.flatnonzero(has)
         query = np.flatnonzero(want)
         for c in range(3):  # three coordinates, not per ray
-            num = np.bincount(cell, ew * pos[inr, c], minlength=size)
-            hitpos[query, c] = np.interp(query, known, num[known] / den[known])
+            num = np.bincount(cell, ewr * d_in[:, c], minlength=size)  # Σ E·r·d_c
+            hitpos[query, c] = origin[c] + np.interp(query, known, num[known] / den[known])
 
     if any_obj:
         # few rays: expand each footprint into its cells (vectorized repeat); sort by id so
@@ -288,7 +293,7 @@ def form_echo(
         cw = ocell[win]
         den = np.bincount(cw, ew, minlength=size)
         has = den > 0
-        opos = pos[o][rep][win]
+        opos = origin[None, :] + dirs[o][rep][win] * r[o][rep][win][:, None]
         for c in range(3):
             num = np.bincount(cw, ew * opos[:, c], minlength=size)
             hitpos[has, c] = num[has] / den[has]
