@@ -6,6 +6,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sim.world import (
     OBJECT_KINDS,
@@ -345,3 +347,64 @@ def test_seabed_trimesh_is_a_single_upward_surface_of_the_grid_area():
     m = sb.to_trimesh()
     assert m.area == pytest.approx(40.0 * 30.0 / np.cos(np.deg2rad(10.0)), rel=1e-9)
     assert (m.face_normals[:, 2] > 0).all()
+
+
+_weird = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([0.0, -1.0, 1e-12, 1e12, float("nan"), float("inf")]),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.sampled_from(
+        [
+            "size_xy",
+            "resolution",
+            "depth",
+            "roughness",
+            "ripple_wavelength",
+            "ripple_height",
+            "slope_deg",
+            "rock_density",
+        ]
+    ),
+    _weird,
+)
+def test_seabed_spec_fields_either_validate_or_raise_value_error(field_name, value):
+    """Property: any number in any field gives a valid spec or a ValueError naming it;
+    NaN and infinities are never accepted."""
+    kw = {field_name: (value, 10.0) if field_name == "size_xy" else value}
+    try:
+        SeabedSpec(**kw)
+        assert np.isfinite(value), "a non-finite value was accepted silently"
+    except ValueError as e:
+        assert field_name.split("_xy")[0] in str(e)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.sampled_from(["position", "rpy_deg", "net_buoyancy", "mass"]), _weird)
+def test_vehicle_spec_fields_either_validate_or_raise_value_error(field_name, value):
+    kw = {field_name: (value, 0.0, -5.0) if field_name in ("position", "rpy_deg") else value}
+    try:
+        VehicleSpec("saga", **kw)
+        assert np.isfinite(value), "a non-finite value was accepted silently"
+    except ValueError as e:
+        assert field_name in str(e)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.sampled_from(["position_xy", "yaw_deg", "size", "burial", "reflectivity"]), _weird)
+def test_object_spec_fields_either_validate_or_raise_value_error(field_name, value):
+    kw = {
+        "position_xy": {"position_xy": (value, 0.0)},
+        "yaw_deg": {"yaw_deg": value},
+        "size": {"size": (1.0, value, 1.0)},
+        "burial": {"burial": value},
+        "reflectivity": {"reflectivity": value},
+    }[field_name]
+    try:
+        ObjectSpec("rock", **kw)
+        assert np.isfinite(value), "a non-finite value was accepted silently"
+    except ValueError as e:
+        assert field_name in str(e)
