@@ -897,7 +897,7 @@ def run_scenario(
             unit="sim s",
             desc=scenario.name,
             dynamic_ncols=True,
-            bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}, {postfix}]",
+            bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining} ETA{postfix}]",
         )
         last = [0.0]
 

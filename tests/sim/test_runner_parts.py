@@ -190,3 +190,10 @@ def test_figures_written(tmp_path, rng):
         [],
     )
     assert p.stat().st_size > 1000 and m.stat().st_size > 1000
+
+
+def test_run_directory_refuses_a_file_path(tmp_path):
+    f = tmp_path / "afile"
+    f.write_text("x")
+    with pytest.raises(OutputExistsError, match="is a file"):
+        RunDirectory(f)
