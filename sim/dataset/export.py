@@ -396,8 +396,8 @@ def merge_shards(cfg: DatasetConfig, jobs: list[ShardJob], out: Path) -> dict:
     """Merge the shard records into ``annotations.json`` (COCO) and write ``README.md``.
 
     Image ids 1.. in (shard, frame, view) order; annotation ids 1.. in image order."""
-    from sim.dataset.card import dataset_card
-    from sim.dataset.coco import coco_categories
+    from sim.dataset.card import dataset_card, preview_image
+    from sim.dataset.coco import coco_categories, png_bytes
 
     images, annotations, shards = [], [], []
     for job in jobs:
@@ -430,6 +430,7 @@ def merge_shards(cfg: DatasetConfig, jobs: list[ShardJob], out: Path) -> dict:
     }
     atomic_write(out / "annotations.json", _json_bytes(coco))
     atomic_write(out / "README.md", dataset_card(cfg, scn, coco, shards).encode())
+    atomic_write(out / "preview.png", png_bytes(preview_image(out, coco)))
     return coco
 
 
