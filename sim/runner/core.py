@@ -561,7 +561,8 @@ class ScenarioRun:
                 )
                 dets.append((o, oid, tp, wxy))
         bg = frame.labels == 0
-        v.fp_pixels += int(np.count_nonzero((labels > 0) & bg))
+        kept = np.isin(labels, [r.label for r in regs]) if regs else np.zeros(labels.shape, bool)
+        v.fp_pixels += int(np.count_nonzero(kept & bg))
         v.bg_pixels += int(np.count_nonzero(bg))
         v.imaged_ids |= set(np.unique(frame.labels[frame.labels > 0]).tolist())
         from sim.runner.sidescan import Detection
@@ -656,7 +657,8 @@ class ScenarioRun:
                     if v.lagged is not None:
                         self._add_obs(v, t, [ob])
                 bg = lab == 0
-                v.fp_pixels += int(np.count_nonzero((labels > 0) & bg))
+                kept = np.isin(labels, [r.label for r in regs])
+                v.fp_pixels += int(np.count_nonzero(kept & bg))
                 v.bg_pixels += int(np.count_nonzero(bg))
             v.imaged_ids |= set(np.unique(lab[lab > 0]).tolist())
         s.horizon = self.world.time

@@ -7,10 +7,12 @@
 * ATE: RMSE of the estimated (x, y) against the true position at the same times.
 * Pose NEES: e_k^T P_k^-1 e_k with e = [dx, dy, wrap(dphi)] (3 dof), averaged over the
   run, with the fraction of steps inside the two-sided 95 % chi-square interval.
-* Detections: a detection is a true positive when the pixels of its region carry an
-  object label (simulator per-sample object id > 0) - PPV = TP / detections; FPR =
-  background pixels segmented as foreground / background pixels (pixel level, the
-  reference reports FPR next to PPV); recall = true objects detected / objects imaged.
+* Detections: a detection is a true positive when >= 10 % of the pixels of its region
+  carry an object label (simulator per-sample object id > 0) - PPV = TP / detections;
+  FPR = seabed pixels inside segmented regions / seabed pixels (pixel level, the
+  reference reports FPR next to PPV; side-scan: every segmented region of the owned
+  rows; FLS / MSIS: the regions kept by the area filter); recall = true objects
+  detected / objects imaged.
 """
 
 from __future__ import annotations

@@ -254,7 +254,9 @@ class SidescanProcessor:
             R = cov[0].copy()
             if self.view_bias > 0:  # the highlight's place on the object depends on the view
                 R[0, 0] += (self.view_bias * ext[1] * bin_w) ** 2
-                R[1, 1] += (self.view_bias * ext[0] * geom.along_track_spacing / max(rng_[0], 1.0)) ** 2
+                R[1, 1] += (
+                    self.view_bias * ext[0] * geom.along_track_spacing / max(rng_[0], 1.0)
+                ) ** 2
             obs = RangeBearing([rng_[0], brg[0]], R, t=p.t, meta={"object_id": oid, "ping": k})
             x, y, yaw = p.pose_true
             wxy = np.array([x + rng_[0] * np.cos(yaw + brg[0]), y + rng_[0] * np.sin(yaw + brg[0])])
@@ -346,24 +348,30 @@ def make_sss_prepare(log_compressed: bool, dynamic_range_db: float, looks: int =
 
 
 def make_fls_prepare(
-    log_compressed: bool, dynamic_range_db: float, looks: int = 3, floor: float = 0.02
+    log_compressed: bool,
+    dynamic_range_db: float,
+    looks: int = 5,
+    window: int = 15,
+    floor: float = 0.02,
 ):
     """Conditioning of an FLS polar frame (bins, beams) before segmentation: linear
-    intensity, each range row divided by its median over the beams that have a return
-    (the FLS analogue of MIRA's range normalization), cells without a return (display
-    value <= ``floor``) set to the seabed level 1, ``looks`` x ``looks`` averaging, dB."""
+    intensity; each cell divided by the median of its ``window`` x ``window`` neighbourhood
+    (a local background estimate: the seabed's level changes with range and grazing angle
+    across the fan, so a per-range normalization is not enough; scipy.ndimage); cells
+    without a return (display value <= ``floor``) set to the background level 1;
+    ``looks`` x ``looks`` averaging against speckle; dB for the segmentation."""
     import cv2
+    from scipy import ndimage
 
     def prepare(img: np.ndarray) -> np.ndarray:
         x = img.astype(np.float64)
         lin = np.power(10.0, x * (dynamic_range_db / 10.0)) if log_compressed else x
         valid = x > (floor if log_compressed else floor * max(float(x.max()), 1e-30))
-        med = np.ones(x.shape[0])
-        rows = np.flatnonzero(valid.sum(axis=1) >= 3)
-        if rows.size:
-            med[rows] = np.nanmedian(np.where(valid[rows], lin[rows], np.nan), axis=1)
-        med = np.where(np.isfinite(med) & (med > 0), med, 1.0)
-        m = np.where(valid, lin / med[:, None], 1.0).astype(np.float32)
+        if not valid.any():
+            return np.zeros(x.shape, np.float32)
+        fill = float(np.median(lin[valid]))
+        bg = ndimage.median_filter(np.where(valid, lin, fill), size=window)
+        m = np.where(valid, lin / np.maximum(bg, 1e-30), 1.0).astype(np.float32)
         if looks > 1:
             m = cv2.blur(m, (looks, looks))
         return (10.0 * np.log10(np.clip(m, 0.1, 100.0))).astype(np.float32)
