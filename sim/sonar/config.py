@@ -164,7 +164,8 @@ class SSSConfig:
     depression_deg: beam axis below horizontal; sidelobe_db: floor of the one-way beam
     pattern (nadir still returns, as in real SSS); ping_rate_hz;
     rays_along_track: rays across the along-track beam; ray_oversampling: rays per range
-    bin on a flat seabed; mount_tolerance (m): how far outside the vehicle's geoms the
+    bin on a flat seabed; angular_grid_deg: spacing of the uniform depression-angle grid
+    joined to that (covers nadir and above the seabed horizon); mount_tolerance (m): how far outside the vehicle's geoms the
     site may be; acoustic: echo formation.
     """
 
@@ -181,6 +182,7 @@ class SSSConfig:
     ping_rate_hz: float = 10.0
     rays_along_track: int = 3
     ray_oversampling: float = 1.0
+    angular_grid_deg: float = 1.0
     mount_tolerance: float = 0.1
     acoustic: AcousticConfig = field(default_factory=AcousticConfig)
 
@@ -206,6 +208,7 @@ class SSSConfig:
                 f"rays_along_track = {self.rays_along_track!r}: allowed integer 1 .. 64"
             )
         _check_range("ray_oversampling", self.ray_oversampling, 0.25, 32.0)
+        _check_range("angular_grid_deg", self.angular_grid_deg, 0.01, 5.0)
 
     @property
     def bin_width(self) -> float:

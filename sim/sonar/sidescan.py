@@ -3,7 +3,7 @@
 Geometry: the sensor frame is the site frame (x forward, y port, z up). Each side casts a
 fan of rays in the across-track plane at depression angles θ (below horizontal, from
 ``depression − vertical_beamwidth`` up to nadir, 90°) and a few along-track angles ψ
-across the along-track beam. The depression angles are the union of a uniform 0.5° grid
+across the along-track beam. The depression angles are the union of a uniform grid (``angular_grid_deg``)
 and a grid that lands rays at uniform slant-range steps on a flat seabed at the altitude
 measured by a nadir probe (``ray_oversampling`` rays per bin), so shadows are sharp at
 every range. Intensity layout per ping: ``(2 × samples,)``, port on the left with far
@@ -128,7 +128,7 @@ class SideScanSonar:
         self.psi = (np.arange(n) + 0.5) / n * span - 0.5 * span
         self.dpsi = span / n
         self.b_along = beam_pattern(self.psi, bw, c.beam_pattern, c.sidelobe_db) ** 2
-        self.uniform_theta = np.arange(self.theta_lo, np.pi / 2, np.deg2rad(0.5))
+        self.uniform_theta = np.arange(self.theta_lo, np.pi / 2, np.deg2rad(c.angular_grid_deg))
         probe = np.deg2rad(_PROBE_DEG)
         self._probe_local = np.concatenate(
             [
@@ -152,7 +152,7 @@ class SideScanSonar:
     def depression_angles(self, altitude: float) -> tuple[np.ndarray, np.ndarray]:
         """Depression angles θ (rad) of the rays of one fan and their angular widths Δθ.
 
-        Cell edges are the union of a 0.5° grid and the angles at which a flat seabed at
+        Cell edges are the union of the uniform ``angular_grid_deg`` grid and the angles at which a flat seabed at
         ``altitude`` lies at uniform slant-range steps (``ray_oversampling`` per bin, out to
         the cast cutoff); each ray sits at the centre of its cell so its range footprint is
         centred on its hit (footprints then tile the range axis)."""
@@ -160,7 +160,7 @@ class SideScanSonar:
         edges = [self.uniform_theta, [np.pi / 2]]
         if np.isfinite(altitude) and altitude < self.mount.cutoff:
             r0 = max(altitude, c.min_range)
-            r1 = 1.02 * c.max_range  # rays further out come from the 0.5° grid
+            r1 = 1.02 * c.max_range  # rays further out come from the uniform grid
             n = int(np.ceil(c.ray_oversampling * (r1 - r0) / self.bin_width)) + 1
             r = np.linspace(r0, r1, n)
             edges.append(np.arcsin(np.clip(altitude / r, -1.0, 1.0)))
