@@ -101,18 +101,20 @@ def test_fej_known_association_nis_is_chi_square_2(two_loop_run):
 
 
 def test_dense_loop_reference_parameters_accuracy_and_3sigma():
-    """Reference parameters (dt 0.0125 as the thesis, two loops as Bailey), known
-    association, first-estimates Jacobians: landmark RMSE below 2 m in every run and
-    >= 95 % of landmarks inside their 3σ ellipse (pooled over runs).
+    """Reference parameters (dt 0.0125 as the thesis, two loops as Bailey), gated ML
+    association (gates 4, 25) with the unambiguous rule, first-estimates Jacobians:
+    landmark RMSE below 2 m in every run, no duplicated landmark, and >= 95 % of
+    landmarks inside their 3σ ellipse (pooled).
 
-    NOTE the issue's target "RMSE < 1 m" is NOT asserted: over seeds 0-7 the median is
-    0.8 m but single runs reach 1.9 m, while the filter's own 1σ is of that size (it is
-    consistent), i.e. the odometry noise does not allow < 1 m in every run."""
+    The issue's "RMSE < 1 m" holds for the median over 20 runs (0.84 m; thesis landmark
+    errors A 0.58 m, B 0.83 m vs the thesis's 0.723 and 1.921) but not in every run
+    (seeds 0-2 here: 1.13, 1.95, 1.12 m): the filter's own σ is of that size, and it is
+    consistent, so a per-run < 1 m bound would be asserting luck."""
     spec = get_experiment("dense-loop", dt=0.0125)
-    runs = [run_once(spec, "aekf", s, {"jacobians": "fej", "association": "known"}) for s in (0, 1)]
+    params = {"jacobians": "fej", "unambiguous_gate": 25.0}
+    runs = [run_once(spec, "aekf", s, params) for s in (0, 1, 2)]
     assert all(r.landmark_rmse < 2.0 for r in runs)
-    inside = np.mean([r.frac_in_3sigma for r in runs])
-    assert inside >= 0.95
+    assert np.mean([r.frac_in_3sigma for r in runs]) >= 0.95
     assert all(r.n_duplicates == 0 for r in runs)
 
 
