@@ -607,7 +607,8 @@ class ScenarioRun:
         lab = np.stack([p.labels for p in pings])
         cfg = s.sonar.config
         if fe.method != "none":
-            labels, regions = _segmenter(fe.method, fe.preset, False)(img)
+            prep = make_fls_prepare(cfg.acoustic.log_compression, cfg.acoustic.dynamic_range_db)
+            labels, regions = _segmenter(fe.method, fe.preset, False)(prep(img))
             regs = [r for r in regions if 4 <= r.area_px <= 0.02 * img.size]
             if regs:
                 geom = MSISGeometry(
