@@ -117,7 +117,7 @@ class UnderseaEnv(gym.Env):
 
     # ---------------------------------------------------------------- life cycle --------
     def _reset_world(self, start_xyz: np.ndarray, yaw: float) -> None:
-        from sim.navigation import NavSuite, NavSuiteConfig
+        from sim.navigation import IMUConfig, NavSuite, NavSuiteConfig
 
         self.world.reset()
         self.vehicle.set_pose(start_xyz, wxyz_from_euler(0.0, 0.0, yaw))
@@ -125,10 +125,11 @@ class UnderseaEnv(gym.Env):
         self._last_u = np.zeros(self.n_actuators)
         st = self.vehicle.state()
         nav_seed = int(self.np_random.integers(2**63))
+        # tactical-grade IMU (FOG), as an AUV of this class carries; the consumer-MEMS
+        # default drifts ~0.3 deg/s in heading
+        cfg = NavSuiteConfig(imu=IMUConfig.preset("tactical"))
         self.nav = (
-            NavSuite(NavSuiteConfig(), np.random.default_rng(nav_seed), t0=st.t)
-            if self.nav_sensors
-            else None
+            NavSuite(cfg, np.random.default_rng(nav_seed), t0=st.t) if self.nav_sensors else None
         )
         self._nav_pose = np.array([start_xyz[0], start_xyz[1], yaw], float)
         self._nav_meas = {

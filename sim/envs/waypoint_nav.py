@@ -19,7 +19,7 @@ class WaypointNavEnv(UnderseaEnv):
     hydrodynamics of sim.world (buoyancy, added mass, damping, currents), actuator lag.
     The agent sees only what the vehicle's own navigation knows: a DVL + gyro dead-
     reckoned position (which drifts), DVL velocity, AHRS attitude, pressure depth and DVL
-    altitude (sim.navigation, default sensor presets).
+    altitude (sim.navigation: tactical-grade IMU, default presets for the other sensors).
 
     ## Action Space
     ``Box(-1, 1, (n_actuators,), float32)``: normalized commands of the vehicle's actuators
