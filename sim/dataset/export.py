@@ -81,7 +81,18 @@ def _config_json(cfg) -> dict:
 def run_shard(job: ShardJob, out_dir: str) -> dict:
     """Simulate one shard, write its images, sidecars and (last) its record.
 
-    Returns ``{"shard", "frames", "images", "wall_s"}`` (wall time only in the return value)."""
+    Returns ``{"shard", "frames", "images", "wall_s"}`` (wall time only in the return
+    value). An error is re-raised as RuntimeError naming the shard, its frames and seed."""
+    try:
+        return _run_shard(job, out_dir)
+    except Exception as exc:
+        raise RuntimeError(
+            f"shard {job.index} (frames {job.first_frame + 1}..{job.first_frame + job.n_frames}, "
+            f"scenario seed {job.seed}, offset {job.offset_s:g} s): {type(exc).__name__}: {exc}"
+        ) from exc
+
+
+def _run_shard(job: ShardJob, out_dir: str) -> dict:
     from sim.dataset.coco import fan_view, instance_annotations, npy_bytes, png_bytes, to_uint8
     from sim.dataset.simulate import ShardSimulation, frame_period, prepare_scenario
 
