@@ -87,8 +87,8 @@ def plot_nees(avg_nees, bounds, path, *, t=None, title: str = "", runs: int | No
     t = np.arange(avg.size) if t is None else np.asarray(t)
     fig, ax = plt.subplots(figsize=(8, 3.5), dpi=110)
     ax.plot(t, avg, "-", color="k", lw=0.8, label="average NEES")
-    for b in bounds:
-        ax.axhline(b, color="tab:red", ls="--", lw=1.0)
+    for i, b in enumerate(bounds):
+        ax.axhline(b, color="tab:red", ls="--", lw=1.0, label="95 % χ² bounds" if i == 0 else None)
     ax.axhline(3.0, color="tab:blue", ls=":", lw=1.0, label="expected (n = 3)")
     ax.set_yscale("log")
     ax.set_xlabel("time [s]" if t is not None else "scan")
