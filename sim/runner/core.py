@@ -543,7 +543,18 @@ class ScenarioRun:
             altitude=v.altitude_nav if np.isfinite(v.altitude_nav) else None,
         )
         max_area = 0.02 * frame.image.size
-        regs = [r for r in regions if 4 <= r.area_px <= max_area]
+        # footprint of a cell at the region's range: bin width x (range x beam spacing)
+        beam = np.radians(cfg.horizontal_fov_deg) / cfg.n_beams
+        regs = [
+            r
+            for r in regions
+            if 4 <= r.area_px <= max_area
+            and r.area_px
+            * cfg.bin_width
+            * max(float(frame.ranges[min(round(r.centroid_rc[0]), len(frame.ranges) - 1)]), 0.5)
+            * beam
+            >= fe.min_area_m2
+        ]
         dets = []
         if regs:
             c = np.array([r.centroid_rc for r in regs])
@@ -609,7 +620,18 @@ class ScenarioRun:
         if fe.method != "none":
             prep = make_fls_prepare(cfg.acoustic.log_compression, cfg.acoustic.dynamic_range_db)
             labels, regions = _segmenter(fe.method, fe.preset, False)(prep(img))
-            regs = [r for r in regions if 4 <= r.area_px <= 0.02 * img.size]
+            step = np.radians(cfg.step_deg)
+            ranges = cfg.min_range + (np.arange(cfg.n_bins) + 0.5) * cfg.bin_width
+            regs = [
+                r
+                for r in regions
+                if 4 <= r.area_px <= 0.02 * img.size
+                and r.area_px
+                * cfg.bin_width
+                * max(float(ranges[min(round(r.centroid_rc[1]), cfg.n_bins - 1)]), 0.5)
+                * step
+                >= fe.min_area_m2
+            ]
             if regs:
                 geom = MSISGeometry(
                     range_max=float(cfg.max_range),

@@ -157,7 +157,9 @@ def plot_sss_mosaic(
     for ax, (name, (grid, ext)) in zip(axes[0], mosaics.items()):
         g = np.where(np.isfinite(grid), grid, np.nan)
         lo, hi = np.nanpercentile(g, [1.0, 99.7]) if np.isfinite(g).any() else (0.0, 1.0)
-        ax.imshow(g, extent=ext, cmap="copper", vmin=lo, vmax=hi, origin="upper", interpolation="nearest")
+        ax.imshow(
+            g, extent=ext, cmap="copper", vmin=lo, vmax=hi, origin="upper", interpolation="nearest"
+        )
         for _cls, p, size in objects:
             ax.add_patch(
                 plt.Rectangle(

@@ -113,7 +113,9 @@ class LaggedSlam:
             d, C = compose_increments(d, C, o.delta, o.cov)
             n += 1
             self.t_done = o.t
-            if self.t_done >= self._next_record - 1e-9 and (self._odo and self._odo[0].t <= t + 1e-9):
+            if self.t_done >= self._next_record - 1e-9 and (
+                self._odo and self._odo[0].t <= t + 1e-9
+            ):
                 # a history node on the record grid (predict so far, record, go on)
                 self.estimator.predict(Odometry(d, C, self.t_done))
                 self.n_predicts += 1

@@ -48,7 +48,9 @@ class RunDirectory:
     def __init__(self, out: str | Path, *, overwrite: bool = False) -> None:
         self.final = Path(out).resolve()
         if self.final.exists() and not self.final.is_dir():
-            raise OutputExistsError(f"output path {str(self.final)!r} is a file; allowed: a directory path")
+            raise OutputExistsError(
+                f"output path {str(self.final)!r} is a file; allowed: a directory path"
+            )
         if self.final.exists() and any(self.final.iterdir()) and not overwrite:
             raise OutputExistsError(
                 f"output directory {str(self.final)!r} exists and is not empty; "

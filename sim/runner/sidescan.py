@@ -11,7 +11,9 @@ windows. Several regions of one object (a wreck broken into highlights) within o
 window are merged when their ground positions (relative to the vehicle track) lie
 closer than ``merge_radius`` (single linkage on the gap between their footprints in
 metres: along-track x ground range). Regions in the nadir band (ground range below
-max(min_ground_range, altitude / 2): the first bottom return) are ignored.
+max(min_ground_range, altitude / 2): the first bottom return) and regions smaller than
+``min_area_m2`` on the ground (pixel = bin width x along-track spacing; speckle blobs)
+are ignored.
 
 Each detection is tied to the ping k nearest its centroid (time t_k): the observation
 comes from the front end's side-scan observation model
@@ -112,6 +114,7 @@ class SidescanProcessor:
         prepare: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
         min_ground_range: float = 2.0,
         view_bias: float = 0.5,
+        min_area_m2: float = 0.0,
     ) -> None:
         if not 1 <= hop <= window:
             raise ValueError(f"hop must be in [1, window={window}], got {hop}")
@@ -128,6 +131,7 @@ class SidescanProcessor:
         self.prepare = prepare
         self.min_ground_range = float(min_ground_range)
         self.view_bias = float(view_bias)
+        self.min_area_m2 = float(min_area_m2)
         self.pings: list[PingRecord] = []
         self._next_start = 0  # start ping of the next window
         self._owned_until = 0  # pings < this are owned by processed windows
@@ -185,6 +189,11 @@ class SidescanProcessor:
         for reg in regions:
             if reg.area_px < self.min_area_px:
                 continue
+            if self.min_area_m2 > 0:  # speckle blobs are small on the ground
+                pk = self.pings[min(a + round(reg.centroid_rc[0]), len(self.pings) - 1)]
+                px_m2 = float(np.median(np.diff(pk.slant_range))) * max(pk.speed, 0.05) / rate
+                if reg.area_px * px_m2 < self.min_area_m2:
+                    continue
             r, c = reg.centroid_rc
             k = a + round(r)
             if not own_lo <= k < own_hi:

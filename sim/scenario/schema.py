@@ -148,7 +148,7 @@ class FrontendSpec:
     preset: str = "auto"
     window_pings: int = 200
     hop_pings: int = 100
-    min_area_m2: float = 0.3
+    min_area_m2: float = 0.15
 
 
 @dataclass(frozen=True)
