@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
 import sys
 import tempfile
 from pathlib import Path
@@ -75,6 +77,8 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
             )
     figures: dict = {
+        "load_average_1min": os.getloadavg()[0],
+        "cpus": os.cpu_count(),
         "scenario": args.scenario,
         "kind": args.kind,
         "frames": args.frames,
@@ -86,7 +90,19 @@ def main(argv: list[str] | None = None) -> int:
     src0 = _sources()
     with tempfile.TemporaryDirectory() as tmp:
         for name, kw in modes:
+            c0 = (
+                resource.getrusage(resource.RUSAGE_SELF),
+                resource.getrusage(resource.RUSAGE_CHILDREN),
+            )
             res = build_dataset(cfg, Path(tmp) / name, progress=False, **kw)
+            c1 = (
+                resource.getrusage(resource.RUSAGE_SELF),
+                resource.getrusage(resource.RUSAGE_CHILDREN),
+            )
+            if name != "ray-local-2":  # Ray workers are not our children: no CPU figure
+                figures[f"{name}_cpu_s"] = sum(
+                    (b.ru_utime + b.ru_stime) - (a.ru_utime + a.ru_stime) for a, b in zip(c0, c1)
+                )
             figures[f"{name}_wall_s"] = res.wall_s
             figures[f"{name}_frames_per_s"] = res.frames_per_s
             figures["images"] = res.n_images
@@ -99,6 +115,12 @@ def main(argv: list[str] | None = None) -> int:
     figures["sources_changed_during_bench"] = sorted(
         Path(k).name for k in set(src0) | set(src1) if src0.get(k) != src1.get(k)
     )
+    if "local-2_cpu_s" in figures:
+        # what 2 free cores would give if the work splits evenly: serial CPU / (CPU of both
+        # workers / 2) -- an estimate for a loaded machine, next to the measured ratio
+        figures["local-2_speedup_if_2_free_cores"] = figures["serial_cpu_s"] / (
+            figures["local-2_cpu_s"] / 2
+        )
     ref = outputs["serial"]
     figures["identical_bytes_across_modes"] = all(o == ref for o in outputs.values())
     figures["differing_files"] = sorted(
