@@ -47,8 +47,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--shard-frames",
         type=int,
-        default=16,
-        help="frames per shard, the unit of parallel work and resume (default 16)",
+        default=32,
+        help="frames per shard, the unit of parallel work and resume (default 32)",
     )
     parser.add_argument(
         "--segmentation", default="rle", help="rle (pixel-exact) | polygon (default rle)"
