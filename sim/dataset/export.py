@@ -19,7 +19,9 @@ the same settings and seed give the same bytes.
 
 Execution follows :mod:`sim.sweep.runner`: ``spawn`` worker processes (MuJoCo/OpenMP are
 not fork-safe), a dead worker's shard is resubmitted on a fresh pool, or Ray tasks with
-retries when ``use_ray``/``ray_address`` is given.
+retries when ``use_ray``/``ray_address`` is given. Ray tasks return their shard's files to
+the driver, which writes them (record last), so a multi-machine cluster needs no shared
+file system; local workers write their own files.
 """
 
 from __future__ import annotations
@@ -78,13 +80,16 @@ def _config_json(cfg) -> dict:
     return json.loads(json.dumps(d, default=float))
 
 
-def run_shard(job: ShardJob, out_dir: str) -> dict:
+def run_shard(job: ShardJob, out_dir: str, in_memory: bool = False) -> dict:
     """Simulate one shard, write its images, sidecars and (last) its record.
 
     Returns ``{"shard", "frames", "images", "wall_s"}`` (wall time only in the return
-    value). An error is re-raised as RuntimeError naming the shard, its frames and seed."""
+    value). ``in_memory``: write nothing, return the files instead under ``"files"``
+    (relative path -> bytes, the record last) for the caller to write -- how Ray workers
+    on other machines hand their shard to the driver without a shared file system.
+    An error is re-raised as RuntimeError naming the shard, its frames and seed."""
     try:
-        return _run_shard(job, out_dir)
+        return _run_shard(job, out_dir, in_memory)
     except Exception as exc:
         raise RuntimeError(
             f"shard {job.index} (frames {job.first_frame + 1}..{job.first_frame + job.n_frames}, "
@@ -92,12 +97,20 @@ def run_shard(job: ShardJob, out_dir: str) -> dict:
         ) from exc
 
 
-def _run_shard(job: ShardJob, out_dir: str) -> dict:
+def _run_shard(job: ShardJob, out_dir: str, in_memory: bool) -> dict:
     from sim.dataset.coco import fan_view, instance_annotations, npy_bytes, png_bytes, to_uint8
     from sim.dataset.simulate import ShardSimulation, frame_period, prepare_scenario
 
     t0 = time.perf_counter()
     out = Path(out_dir)
+    files: dict[str, bytes] = {}
+
+    def put(rel: str, data: bytes) -> None:
+        if in_memory:
+            files[rel] = data
+        else:
+            atomic_write(out / rel, data)
+
     cfg = job.config
     scn = prepare_scenario(job.scenario, job.seed)
     sim = ShardSimulation(scn, cfg.sonar_kinds, cfg.tile_pings, cfg.fls_interval_s)
@@ -144,7 +157,7 @@ def _run_shard(job: ShardJob, out_dir: str) -> dict:
         for view, linear, labels, extra in views:
             stem = f"{gidx + 1:06d}_{view}"
             acoustic = fr.config.acoustic
-            atomic_write(out / "images" / f"{stem}.png", png_bytes(to_uint8(linear, acoustic)))
+            put(f"images/{stem}.png", png_bytes(to_uint8(linear, acoustic)))
             rec = {
                 "file_name": f"{stem}.png",
                 "height": int(linear.shape[0]),
@@ -160,9 +173,7 @@ def _run_shard(job: ShardJob, out_dir: str) -> dict:
                 "meta_file": f"meta/{stem}.json",
             }
             if cfg.save_linear:
-                atomic_write(
-                    out / "linear" / f"{stem}.npy", npy_bytes(np.asarray(linear, np.float32))
-                )
+                put(f"linear/{stem}.npy", npy_bytes(np.asarray(linear, np.float32)))
                 rec["linear_file"] = f"linear/{stem}.npy"
             anns = instance_annotations(labels, class_of, cfg.segmentation)
             ids = sorted({a["object_id"] for a in anns})
@@ -196,7 +207,7 @@ def _run_shard(job: ShardJob, out_dir: str) -> dict:
                 "label_counts": _label_counts(labels),
                 "instances": [o for o in objects if o["id"] in ids],
             }
-            atomic_write(out / "meta" / f"{stem}.json", _json_bytes(meta))
+            put(f"meta/{stem}.json", _json_bytes(meta))
             rec["annotations"] = anns
             images.append(rec)
     record = {
@@ -209,13 +220,16 @@ def _run_shard(job: ShardJob, out_dir: str) -> dict:
         "objects": objects,
         "images": images,
     }
-    atomic_write(shard_path(out, job.index), _json_bytes(record))
-    return {
+    put(str(shard_path(Path(), job.index)), _json_bytes(record))  # last: the shard is done
+    result = {
         "shard": job.index,
         "frames": job.n_frames,
         "images": len(images),
         "wall_s": time.perf_counter() - t0,
     }
+    if in_memory:
+        result["files"] = files
+    return result
 
 
 def _display_floor(acoustic) -> float:
@@ -389,12 +403,17 @@ def _run_ray(todo, out: Path, workers: int, address: str | None, collect) -> Non
         else:
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
     try:
+        # workers hand back their files (no shared file system needed); the driver writes
+        # them, the shard record last, as each shard arrives
         remote = ray.remote(max_retries=2, num_cpus=1)(run_shard)
-        refs = [remote.remote(job, str(out)) for job in todo]
+        refs = [remote.remote(job, str(out), True) for job in todo]
         while refs:
             done, refs = ray.wait(refs, num_returns=1)
             for ref in done:
-                collect(ray.get(ref))
+                r = ray.get(ref)
+                for rel, data in r.pop("files").items():  # insertion order: record last
+                    atomic_write(out / rel, data)
+                collect(r)
     finally:
         if started_here:
             ray.shutdown()
