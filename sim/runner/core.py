@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.runner.lagged import LaggedSlam
+from sim.runner.lagged import LaggedSlam, apply_increment
 from sim.runner.metrics import detection_metrics, landmark_metrics, pose_metrics
 from sim.runner.output import RunDirectory
 from sim.runner.sidescan import PingRecord, SidescanProcessor, make_fls_prepare, make_sss_prepare
@@ -164,6 +164,8 @@ class VehicleRuntime:
     bg_pixels: int = 0
     imaged_ids: set = field(default_factory=set)
     speed: float = 0.0
+    dr_t: list = field(default_factory=list)  # dead reckoning alone: the same odometry, no updates
+    dr_pose: list = field(default_factory=list)
     altitude_nav: float = float("nan")
 
 
@@ -410,6 +412,12 @@ class ScenarioRun:
         if v.lagged is not None and st.t > (v.true_t[-1] if v.true_t else -1) + 1e-9:
             inc = v.nav.odometry(st.t)
             v.lagged.add_odometry(Odometry(inc.delta, inc.cov, inc.t))
+            if not v.dr_pose:
+                x0, _ = v.lagged.estimator.pose()
+                v.dr_t.append(v.true_t[0])
+                v.dr_pose.append(np.array(x0, float))
+            v.dr_t.append(inc.t)
+            v.dr_pose.append(apply_increment(v.dr_pose[-1], inc.delta))
         if not v.true_t or st.t > v.true_t[-1] + 1e-9:
             v.true_t.append(st.t)
             v.true_pose.append([st.position[0], st.position[1], st.position[2], _yaw(st.quat_wxyz)])
@@ -817,6 +825,18 @@ class ScenarioRun:
                         ]
                     )
                     d["pose"] = pose_metrics(ht, est, cov, truth)
+                    if v.dr_pose:  # the same odometry without any sonar update, same times
+                        dr = np.array(v.dr_pose)
+                        drt = np.array(v.dr_t)
+                        e = (
+                            np.column_stack(
+                                [np.interp(ht, drt, dr[:, 0]), np.interp(ht, drt, dr[:, 1])]
+                            )
+                            - truth[:, :2]
+                        )
+                        d["pose"]["dead_reckoning_ate_m"] = float(
+                            np.sqrt(np.mean(np.sum(e**2, axis=1)))
+                        )
                 means, covs = v.lagged.estimator.landmarks()
                 seen = [i for i, o in enumerate(objs) if o.id in v.imaged_ids]
                 d["landmarks"] = landmark_metrics(
@@ -829,7 +849,6 @@ class ScenarioRun:
                     "n_predicts": v.lagged.n_predicts,
                     "n_updates": v.lagged.n_updates,
                 }
-                # dead reckoning alone, for comparison: the same odometry without updates
             out[v.spec.name] = d
         return out
 

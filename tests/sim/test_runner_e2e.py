@@ -160,3 +160,17 @@ def test_full_default_survey_maps_every_object_once(tmp_path):
     assert lm["n_duplicated_objects"] == 0 and lm["n_spurious"] == 0
     assert lm["rmse_m"] < 2.5 and lm["landmark_nees_mean"] < 5.99
     assert po["nees_mean"] < 9.35 and po["nees_in_95_interval"] >= 0.8
+
+
+def test_swarms_mapping_runs_four_vehicles_each_with_own_slam(tmp_path):
+    """Several vehicles in one scenario: each has its own sonar, navigation and SLAM
+    entry in metrics.json and its own entities in the recording (2 s of sim)."""
+    scn = load_scenario("swarms-mapping", {"outputs.figures": False}).with_overrides(duration_s=2.0)
+    res = run_scenario(scn, tmp_path / "swarm", progress=False)
+    names = {v.name for v in scn.vehicles}
+    assert set(res.metrics["vehicles"]) == names and len(names) == 4
+    for v in res.metrics["vehicles"].values():
+        assert v["slam"]["estimator"] == "aekf" and v["pose"]["ate_m"] < 0.5
+        assert v["pose"]["dead_reckoning_ate_m"] is not None
+    ents = read_recording(tmp_path / "swarm" / "recording.rrd")
+    assert all(f"/world/{n}" in ents and f"/world/{n}/mesh" in ents for n in names)
