@@ -145,14 +145,21 @@ def log_vehicle_mesh(
     vertices: np.ndarray,
     faces: np.ndarray,
     color=(255, 200, 0),
+    vertex_colors: np.ndarray | None = None,
 ) -> None:
-    """Vehicle mesh in its body frame (static) under the vehicle's transform."""
+    """Vehicle mesh in its body frame (static) under the vehicle's transform; one colour
+    or per-vertex colours (V, 3) uint8."""
+    kw = (
+        {"vertex_colors": np.asarray(vertex_colors, np.uint8)}
+        if vertex_colors is not None
+        else {"albedo_factor": [*color, 255]}
+    )
     rec.log(
         f"world/{vehicle}/mesh",
         rr.Mesh3D(
             vertex_positions=np.asarray(vertices, dtype=np.float32),
             triangle_indices=np.asarray(faces, dtype=np.uint32),
-            albedo_factor=[*color, 255],
+            **kw,
         ),
         static=True,
     )
