@@ -279,6 +279,11 @@ class UnderseaEnv(gym.Env):
         L.log_annotations(self._rec)
         v, f, _ = self.world.static_mesh()
         L.log_seabed(self._rec, v, f)
+        from sim.runner.core import vehicle_body_mesh
+
+        mesh = vehicle_body_mesh(self.world.model, self.world.data, self.vehicle.body_id)
+        if mesh is not None:
+            L.log_vehicle_mesh(self._rec, self.vehicle.name, mesh[0], mesh[1], vertex_colors=mesh[2])
         if self.world.objects:
             L.log_objects(
                 self._rec,

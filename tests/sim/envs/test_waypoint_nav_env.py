@@ -111,3 +111,4 @@ def test_records_rerun(tmp_path):
     e.close()
     ents = read_recording(p)
     assert ents["/world/alister9"].rows == 5 and ents["/world/seabed"].static
+    assert ents["/world/alister9/mesh"].static
