@@ -49,6 +49,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="control interval s: 0.025 (Bailey) or 0.0125 (thesis)",
     )
     parser.add_argument("--loops", type=int, default=None, help="override the number of loops")
+    parser.add_argument(
+        "--unbiased-odometry",
+        action="store_true",
+        help="correct the simulator's odometry bias exp(-σ_G²/2) (Bailey's is biased)",
+    )
     parser.add_argument("--out", default=None, help="directory for figures and results JSON")
     parser.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     parser.add_argument(
@@ -68,7 +73,9 @@ def run(args: argparse.Namespace) -> int:
         raise SystemExit(f"undersea slam-experiment: --runs must be >= 1, got {args.runs}")
     if args.loops is not None and args.loops < 1:
         raise SystemExit(f"undersea slam-experiment: --loops must be >= 1, got {args.loops}")
-    spec = get_experiment(args.experiment, dt=args.dt, n_loops=args.loops)
+    spec = get_experiment(
+        args.experiment, dt=args.dt, n_loops=args.loops, unbiased_odometry=args.unbiased_odometry
+    )
     params = dict(args.param)
     try:
         mc = run_monte_carlo(
@@ -86,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
         summary = mc.summary()
         summary["dt_s"] = spec.sim.dt_s
         summary["n_loops"] = spec.sim.n_loops
+    summary["unbiased_odometry"] = spec.sim.unbiased_odometry
     if args.json:
         from slam.experiments.runner import _jsonable
 

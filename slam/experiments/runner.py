@@ -83,16 +83,20 @@ def _segmentation_named():
     return out
 
 
-def get_experiment(name: str, *, dt: float = 0.025, n_loops: int | None = None) -> ExperimentSpec:
+def get_experiment(
+    name: str, *, dt: float = 0.025, n_loops: int | None = None, unbiased_odometry: bool = False
+) -> ExperimentSpec:
     """Build experiment ``name`` ("dense-loop", "line", "segmentation-loop") with control
     interval ``dt`` s (0.025 Bailey's default, 0.0125 the thesis's) and optionally another
-    number of loops."""
+    number of loops; ``unbiased_odometry`` see :class:`slam.sim2d.Sim2DConfig`."""
     if name not in EXPERIMENTS:
         raise ValueError(f"unknown experiment {name!r}; allowed: {', '.join(EXPERIMENTS)}")
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be > 0 s, got {dt}")
     maker, loops, named = EXPERIMENTS[name]
-    sim = Sim2DConfig(dt_s=dt, n_loops=loops if n_loops is None else n_loops)
+    sim = Sim2DConfig(
+        dt_s=dt, n_loops=loops if n_loops is None else n_loops, unbiased_odometry=unbiased_odometry
+    )
     return ExperimentSpec(name, maker(), sim, named())
 
 
@@ -365,6 +369,7 @@ def save_results(mc: MonteCarloResult, spec: ExperimentSpec, out_dir) -> dict:
     summary["files"] = files
     summary["dt_s"] = spec.sim.dt_s
     summary["n_loops"] = spec.sim.n_loops
+    summary["unbiased_odometry"] = spec.sim.unbiased_odometry
     (out / f"{stem}_results.json").write_text(json.dumps(_jsonable(summary), indent=2))
     return summary
 

@@ -199,6 +199,10 @@ def simulate_run(
     Vn = cfg.speed_mps + cfg.sigma_v_mps * noise[:, 0]
     Gn = tp.steer + cfg.sigma_steer_rad * noise[:, 1]
     step_u, step_Q = step_odometry(Vn, Gn, cfg)
+    if cfg.unbiased_odometry:
+        f = np.exp(0.5 * cfg.sigma_steer_rad**2)
+        step_u *= f
+        step_Q *= f * f
     scans = tp.scan_steps
     starts = np.concatenate([[0], scans[:-1] + 1])
     used = scans[-1] + 1 if scans.size else 0
