@@ -262,6 +262,7 @@ class DatasetResult:
     shards_resumed: list[int] = field(default_factory=list)
     wall_s: float = 0.0
     frames_now: int = 0  # frames simulated this invocation (not resumed)
+    retried: list[int] = field(default_factory=list)  # shards re-run after a worker died
 
     @property
     def frames_per_s(self) -> float | None:
@@ -347,7 +348,7 @@ def build_dataset(
             for job in todo:
                 collect(run_shard(job, str(out)))
         else:
-            _run_local(todo, out, workers, max_retries, collect)
+            _run_local(todo, out, workers, max_retries, collect, result.retried.append)
     finally:
         bar.close()
     result.wall_s = time.perf_counter() - t0
@@ -357,7 +358,7 @@ def build_dataset(
     return result
 
 
-def _run_local(todo, out: Path, workers: int, max_retries: int, collect) -> None:
+def _run_local(todo, out: Path, workers: int, max_retries: int, collect, on_retry) -> None:
     ctx = multiprocessing.get_context("spawn")  # MuJoCo/OpenMP threads are not fork-safe
     attempts = {j.index: 0 for j in todo}
     pending = list(todo)
@@ -386,6 +387,7 @@ def _run_local(todo, out: Path, workers: int, max_retries: int, collect) -> None
                     f"shard {job.index} (frames {job.first_frame + 1}..{job.first_frame + job.n_frames}, "
                     f"seed {job.seed}): worker process died {attempts[job.index]} times"
                 )
+            on_retry(job.index)
             pending.append(job)
 
 

@@ -382,3 +382,44 @@ def test_min_objects_keeps_only_frames_with_objects(scene, tmp_path):
     assert len(coco["images"]) == 2
     assert {a["image_id"] for a in coco["annotations"]} == {1, 2}
     assert coco["images"][0]["time_s"] > 2.0
+
+
+def test_killed_worker_process_shard_is_redone_in_the_same_run(scene, serial, tmp_path):
+    """SIGKILL one of 2 local worker processes once the first shard is on disk: the export
+    still finishes in the same call (the lost shard runs again on a fresh pool) and writes
+    the serial dataset byte for byte."""
+    import multiprocessing
+    import os
+    import signal
+    import threading
+    import time
+
+    out = tmp_path / "ds"
+    box: dict = {}
+
+    def target() -> None:
+        try:
+            box["res"] = build_dataset(_cfg(scene), out, workers=2, progress=False)
+        except BaseException as exc:  # reported below
+            box["err"] = exc
+
+    before = {p.pid for p in multiprocessing.active_children()}
+    th = threading.Thread(target=target)
+    th.start()
+    t_end = time.monotonic() + 90
+    killed = None
+    while th.is_alive() and time.monotonic() < t_end and killed is None:
+        if list((out / "shards").glob("shard_*.json")):
+            workers = [p for p in multiprocessing.active_children() if p.pid not in before]
+            if workers and len(list((out / "shards").glob("*.json"))) < 2:
+                killed = workers[0].pid
+                os.kill(killed, signal.SIGKILL)
+        time.sleep(0.01)
+    th.join(120)
+    assert killed is not None, "no worker to kill before the export ended"
+    assert "err" not in box, box.get("err")
+    assert sorted(box["res"].shards_done) == [0, 1]
+    assert box["res"].retried  # the kill did break the pool and a shard ran again
+    ref, got = _files(serial), _files(out)
+    assert sorted(got) == sorted(ref)
+    assert [k for k in ref if ref[k] != got[k]] == []
