@@ -94,9 +94,10 @@ class ISAM2SLAM:
     extra_iterations : additional ``ISAM2.update()`` calls after each update (more
         relinearization after loop closures; 0 is the standard one step per update).
     marginal_refresh_every : refresh all cached landmark marginals every this many updates.
-    min_variance, relative_floor : eigenvalue floor (absolute m² / rad², and relative to
-        the largest eigenvalue) of the odometry and measurement covariances handed to GTSAM
-        (a singular covariance has no square-root information; see ``_noise``).
+    min_variance : absolute eigenvalue floor (m² / rad²) of the odometry and measurement
+        covariances handed to GTSAM (a singular covariance has no square-root information).
+    relative_floor : odometry covariances are also floored at this fraction of their
+        largest eigenvalue (see ``_noise``).
     prior_min_variance : eigenvalue floor of the prior on ``x0`` (P0 = 0 by default:
         σ = 0.1 mm / 0.1 mrad instead of an exact anchor).
     rng, seed, **_ : accepted and ignored (the estimator is deterministic) so the factory
@@ -226,13 +227,17 @@ class ISAM2SLAM:
         c, s = np.cos(phi), np.sin(phi)
         return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
-    def _noise(self, cov: np.ndarray, floor: float | None = None):
-        """GTSAM Gaussian noise model with eigenvalues floored at ``min_variance`` and at
-        ``relative_floor`` times the largest one: a rank-deficient odometry covariance (two
-        control noises driving three increments) otherwise gives information 1e8 times
-        larger than elsewhere and iSAM2's Cholesky reports an indeterminate system."""
+    def _noise(self, cov: np.ndarray, floor: float | None = None, relative: bool = False):
+        """GTSAM Gaussian noise model with eigenvalues floored at ``min_variance`` (or
+        ``floor``) and, for odometry (``relative=True``), at ``relative_floor`` times the
+        largest one: a rank-deficient odometry covariance (two control noises driving three
+        increments) otherwise gives information 1e8 times larger than elsewhere and iSAM2's
+        Cholesky reports an indeterminate system. Measurement covariances are validated
+        positive definite and only get the absolute floor."""
         lam, V = np.linalg.eigh(_sym(np.asarray(cov, dtype=float)))
-        fl = max(self.min_variance if floor is None else floor, self.relative_floor * lam.max())
+        fl = self.min_variance if floor is None else floor
+        if relative:
+            fl = max(fl, self.relative_floor * lam.max())
         c = _sym((V * np.maximum(lam, fl)) @ V.T)
         return self._g.noiseModel.Gaussian.Covariance(c)
 
@@ -284,7 +289,10 @@ class ISAM2SLAM:
         cov_xi = T.T @ self._pending_cov @ T
         graph.add(
             g.BetweenFactorPose2(
-                self._xkey(i), self._xkey(i + 1), g.Pose2(*self._pending), self._noise(cov_xi)
+                self._xkey(i),
+                self._xkey(i + 1),
+                g.Pose2(*self._pending),
+                self._noise(cov_xi, relative=True),
             )
         )
         values.insert(self._xkey(i + 1), g.Pose2(*x_new))
