@@ -87,3 +87,20 @@ def test_settings_name_field_value_and_allowed(field, value, match):
     kw = {"frames": 2, field: value}
     with pytest.raises(ValueError, match=match):
         DatasetConfig("shipwreck-survey", **kw)
+
+
+def test_cli_overrides_are_toml_values():
+    """--set values parse as TOML (int, float, bool, list, quoted string), else stay text."""
+    from sim.cli.dataset_cmd import parse_overrides
+
+    got = parse_overrides(["a.b=3", "c=0.5", "d=true", "e=[1.0, 2.0]", 'f="x y"', "g=abc"])
+    assert got == (
+        ("a.b", 3),
+        ("c", 0.5),
+        ("d", True),
+        ("e", [1.0, 2.0]),
+        ("f", "x y"),
+        ("g", "abc"),
+    )
+    with pytest.raises(ValueError, match="KEY=VALUE"):
+        parse_overrides(["novalue"])
