@@ -137,6 +137,13 @@ def _as_observations(z, R) -> tuple[np.ndarray, np.ndarray]:
             f"z range must be > 0 m (a zero range has no bearing), got {z[:, 0].min()}"
         )
     _check_cov("R (observation covariance)", R)
+    if R.shape[0]:
+        det = R[:, 0, 0] * R[:, 1, 1] - R[:, 0, 1] * R[:, 1, 0]
+        if np.any(np.diagonal(R, axis1=1, axis2=2) <= 0.0) or np.any(det <= 0.0):
+            raise ValueError(
+                "R (observation covariance) must be positive definite (a noise-free "
+                f"range-bearing observation is not supported), got {R[np.argmin(det)].tolist()}"
+            )
     return z, R
 
 

@@ -356,6 +356,7 @@ def test_rejected_odometry_leaves_state_unchanged(u, Q, match):
         ([[5.0, 0.1]], np.diag([0.01, -3e-4]), "negative variance"),
         ([[5.0, 0.1]], np.array([[0.01, 0.1], [0.1, 0.01]]), "positive semi-definite"),
         ([[5.0, 0.1]], np.array([[0.01, np.nan], [0.0, 0.01]]), "finite"),
+        ([[5.0, 0.1]], np.diag([0.01, 0.0]), "positive definite"),
     ],
 )
 def test_rejected_observations_leave_state_unchanged(z, R, match):
