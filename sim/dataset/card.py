@@ -147,7 +147,8 @@ def _palette(k: int) -> tuple[int, int, int]:
 
 def preview_image(out_dir, coco: dict, n: int = 8, tile: int = 256) -> np.ndarray:
     """BGR grid of up to ``n`` images (those with the most instances, then by id) with their
-    masks tinted by category and boxes drawn; each letterboxed into ``tile`` x ``tile``."""
+    masks tinted by category and boxes drawn; each letterboxed into ``tile`` x ``tile``
+    (strips longer than ``tile`` are cropped to a square around their largest instance)."""
     from pathlib import Path
 
     import cv2
@@ -162,16 +163,27 @@ def preview_image(out_dir, coco: dict, n: int = 8, tile: int = 256) -> np.ndarra
         g = cv2.imread(str(Path(out_dir) / "images" / im["file_name"]), cv2.IMREAD_GRAYSCALE)
         img = cv2.cvtColor(g, cv2.COLOR_GRAY2BGR).astype(np.float32)
         for a in by_image.get(im["id"], []):
-            m = (
-                mask_utils.decode(a["segmentation"]) > 0
-                if isinstance(a["segmentation"], dict)
-                else None
-            )
+            seg = a["segmentation"]
+            if not isinstance(seg, dict):  # polygons
+                seg = mask_utils.merge(mask_utils.frPyObjects(seg, *g.shape))
+            m = mask_utils.decode(seg) > 0
             col = np.array(_palette(a["category_id"]), np.float32)
-            if m is not None:
-                img[m] = 0.4 * img[m] + 0.6 * col
+            img[m] = 0.4 * img[m] + 0.6 * col
             x, y, w, h = a["bbox"]
             cv2.rectangle(img, (x, y), (x + w - 1, y + h - 1), col.tolist(), 1)
+        # long strips (side-scan tiles) are cropped to a square window around the largest
+        # instance, so the preview shows the object rather than a thin line
+        H, W = img.shape[:2]
+        c = min(max(H, W), max(min(H, W), tile))
+        anns = by_image.get(im["id"], [])
+        if anns:
+            x, y, w, h = max(anns, key=lambda a: (a["area"], -a["id"]))["bbox"]
+            cy, cx = y + h // 2, x + w // 2
+        else:
+            cy, cx = H // 2, W // 2
+        r0 = int(np.clip(cy - c // 2, 0, max(0, H - c)))
+        c0 = int(np.clip(cx - c // 2, 0, max(0, W - c)))
+        img = img[r0 : r0 + c, c0 : c0 + c]
         H, W = img.shape[:2]
         s = tile / max(H, W)
         small = cv2.resize(
