@@ -167,3 +167,13 @@ def test_fifty_run_average_nees_fej_known_association_dense_loop():
     lo, hi = mc.nees_bounds
     assert lo <= float(np.nanmean(mc.avg_nees)) <= hi
     assert mc.nees_frac_inside > 0.7
+
+
+def test_factory_isam2_without_gtsam_names_the_extra(monkeypatch):
+    """With gtsam unimportable, asking for iSAM2 fails with the install hint."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "gtsam", None)
+    monkeypatch.delitem(sys.modules, "slam.estimators.isam2", raising=False)
+    with pytest.raises(ImportError, match="baselines"):
+        make_estimator("isam2")
