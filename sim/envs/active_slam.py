@@ -140,9 +140,9 @@ class ActiveSLAMEnv(UnderseaEnv):
 
     def _new_slam(self, pose0: np.ndarray) -> None:
         from sim.runner.lagged import LaggedSlam
-        from sim.runner.sidescan import SidescanProcessor, make_sss_prepare
         from slam.estimators import make_estimator
         from slam.frontend.segmentation.methods import segment
+        from slam.frontend.sidescan_windows import SidescanProcessor, make_sss_prepare
 
         def seg(img):
             r = segment(img, method="improved-otsu", params="auto")
@@ -223,7 +223,7 @@ class ActiveSLAMEnv(UnderseaEnv):
         return {"nav": o, "landmarks": lm}
 
     def step(self, action):
-        from sim.runner.sidescan import PingRecord
+        from slam.frontend.sidescan_windows import PingRecord
         from slam.types import Odometry
 
         u, clipped = self._check_action(action)

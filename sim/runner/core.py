@@ -7,7 +7,7 @@ vehicles' own navigation filters are not modelled; SLAM runs beside it). Physics
 advances in whole physics steps to each sonar ping due inside the tick; at each ping the
 vehicle's nav suite is polled and its odometry cut at the ping time, so every sonar
 observation has an odometry node at exactly its time. Side-scan pings accumulate into
-waterfall windows (sim.runner.sidescan), FLS frames are segmented one by one, MSIS
+waterfall windows (slam.frontend.sidescan_windows), FLS frames are segmented one by one, MSIS
 pings build sector scans. Observations reach SLAM through a time-ordered fixed-lag
 feeder (sim.runner.lagged): each update happens at the pose of its ping.
 
@@ -33,8 +33,13 @@ import numpy as np
 from sim.runner.lagged import LaggedSlam, apply_increment
 from sim.runner.metrics import detection_metrics, landmark_metrics, pose_metrics
 from sim.runner.output import RunDirectory
-from sim.runner.sidescan import PingRecord, SidescanProcessor, make_fls_prepare, make_sss_prepare
 from sim.scenario.schema import Scenario, SonarSpec, VehicleSpec
+from slam.frontend.sidescan_windows import (
+    PingRecord,
+    SidescanProcessor,
+    make_fls_prepare,
+    make_sss_prepare,
+)
 from slam.types import Odometry
 
 # ----------------------------------------------------------------------- building -------
@@ -584,7 +589,7 @@ class ScenarioRun:
         v.fp_pixels += int(np.count_nonzero(kept & bg))
         v.bg_pixels += int(np.count_nonzero(bg))
         v.imaged_ids |= set(np.unique(frame.labels[frame.labels > 0]).tolist())
-        from sim.runner.sidescan import Detection
+        from slam.frontend.sidescan_windows import Detection
 
         for o, oid, tp, wxy in dets:
             v.detections.append(
@@ -652,7 +657,7 @@ class ScenarioRun:
                 )
                 c = np.array([r.centroid_rc for r in regs])
                 e = np.array([(r.bbox[2] - r.bbox[0], r.bbox[3] - r.bbox[1]) for r in regs], float)
-                from sim.runner.sidescan import Detection
+                from slam.frontend.sidescan_windows import Detection
 
                 for o in observe_regions(geom, c, e, on_invalid="skip"):
                     r = regs[o.meta["index"]]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.runner.sidescan import PingRecord, SidescanProcessor
+from slam.frontend.sidescan_windows import PingRecord, SidescanProcessor
 
 
 def _threshold_segment(img):
