@@ -18,17 +18,39 @@ with ``T`` the top two rows of ``Ry(pitch) Rx(roll)`` (levels the DVL velocity w
 AHRS attitude), ``c_z = cos(roll)/cos(pitch)`` (yaw-rate from body z rate), ``phi_mid``
 the heading at the middle of the chunk and ``b`` a gyro-bias estimate (0 by default).
 
+Heading aiding (``ahrs_yaw_std`` set, the default of :meth:`DeadReckoningConfig.from_sensors`
+when an AHRS config is given): the AHRS/compass yaw is fused into the heading with a
+Kalman update that also estimates the gyro bias, as vehicle navigation systems do. A
+consumer MEMS gyro's turn-on bias (~0.3 °/s) makes a pure gyro heading drift ~20° a
+minute; worse, the bias is common to every increment, so a SLAM predict that treats
+increments as independent adds their variances where the errors add coherently
+(n σ² instead of n² σ²) and becomes wildly over-confident. With the compass fused, the
+residual bias is small and the heading error is bounded, so increments are close to
+independent. Without aiding (``ahrs_yaw_std=None``) the heading is the gyro integral.
+
 Covariance: exact linear propagation of an augmented error state
-``e = [dp (2), dphi, n_v (3), n_w, b_w]`` — the pose error, the noise of the *held* DVL
-sample (constant until the next ping, so it is a state, not white process noise), the
-noise of the held gyro sample, and the gyro bias. A new sample replaces its noise state
-by a fresh independent draw (zero cross-covariance, variance = per-sample variance of
-the configured sensor). The bias carries the IMU's turn-on bias variance and its random
-walk. Without DVL lock the last velocity is held and its error random-walks with
-``coast_velocity_std`` (m/s/√s). Not modelled: roll/pitch noise of the levelling
-(second order for a near-level vehicle), x/y gyro noise, DVL scale-factor error.
+``e = [dp (2), dphi, e0, n_v (3), n_w, b_w]`` — the pose error of the interval (dphi the
+error of the heading change), the absolute heading error ``e0`` at the start of the
+interval (only non-zero with aiding: the compass measures absolute heading, so the
+increment's heading error is the difference of two absolute errors), the noise of the
+*held* DVL sample (constant until the next ping, so it is a state, not white process
+noise), the noise of the held gyro sample, and the residual gyro bias (true minus
+estimate). A new sample replaces its noise state by a fresh independent draw (zero
+cross-covariance, variance = per-sample variance of the configured sensor). The bias
+carries the IMU's turn-on bias variance and its random walk. The compass update is a
+Schmidt ("consider") Kalman update: only the interval pose and the bias are corrected
+(``e0`` must stay fixed — the previous increment has been handed out — and the held
+noise states are not worth estimating), with the Joseph-form covariance, which is exact
+for any gain. Without DVL lock the last velocity is held and its error random-walks with
+``coast_velocity_std`` (m/s/√s). Not modelled: roll/pitch noise of the levelling (second
+order for a near-level vehicle), x/y gyro noise, DVL scale-factor error, a constant
+compass offset (``AHRSConfig.yaw_bias`` — it cancels in heading differences).
 The filter is written here because it is a small custom error-state model; the
 linearisation mirrors the AEKF predict Jacobians.
+
+Increments of one run are still correlated through the states that carry over a cut
+(held noise, residual bias, ``e0``); consistency of the *composed* increments is tested
+by Monte Carlo (tests/sim/navigation/test_nav_consumer_imu.py).
 """
 
 from __future__ import annotations
@@ -39,6 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim.navigation.sensors import (
+    AHRSConfig,
     AHRSMeasurement,
     DVLConfig,
     DVLMeasurement,
@@ -51,10 +74,13 @@ __all__ = ["DeadReckoner", "DeadReckoningConfig", "OdometryIncrement", "true_inc
 # indices of the augmented error state
 _P = slice(0, 2)
 _PHI = 2
-_NV = slice(3, 6)
-_NW = 6
-_B = 7
-_N = 8
+_E0 = 3
+_NV = slice(4, 7)
+_NW = 7
+_B = 8
+_N = 9
+# states a compass update corrects (the others are "consider" states)
+_UPDATED = np.array([True, True, True, False, False, False, False, False, True])
 
 
 @dataclass(frozen=True)
@@ -95,7 +121,10 @@ class DeadReckoningConfig:
     gyro_bias_rw       : gyro-bias random walk, rad/s²/√Hz.
     coast_velocity_std : growth of velocity error without DVL lock, m/s/√s.
     initial_velocity_std : std of the (zero) velocity assumed before the first lock, m/s.
-    gyro_bias_estimate : bias subtracted from the z gyro, rad/s (a calibration value).
+    gyro_bias_estimate : bias subtracted from the z gyro, rad/s (a calibration value;
+                         with heading aiding, the initial value of the estimated bias).
+    ahrs_yaw_std       : std of the AHRS/compass yaw, rad, fused into the heading; None
+                         (default) = no heading aiding, gyro-only heading.
     """
 
     dvl_velocity_std: float
@@ -105,6 +134,7 @@ class DeadReckoningConfig:
     coast_velocity_std: float = 0.05
     initial_velocity_std: float = 1.0
     gyro_bias_estimate: float = 0.0
+    ahrs_yaw_std: float | None = None
 
     def __post_init__(self) -> None:
         for n in (
@@ -122,6 +152,12 @@ class DeadReckoningConfig:
             raise ValueError(
                 f"DeadReckoningConfig.gyro_bias_estimate must be finite, got {self.gyro_bias_estimate!r}"
             )
+        a = self.ahrs_yaw_std
+        if a is not None and not (isinstance(a, int | float) and math.isfinite(a) and a >= 0):
+            raise ValueError(
+                f"DeadReckoningConfig.ahrs_yaw_std must be None (no heading aiding) or a finite "
+                f"number >= 0, got {a!r}"
+            )
 
     @classmethod
     def from_sensors(
@@ -130,8 +166,10 @@ class DeadReckoningConfig:
         imu: IMUConfig,
         coast_velocity_std: float = 0.05,
         initial_velocity_std: float = 1.0,
+        ahrs: AHRSConfig | None = None,
     ) -> DeadReckoningConfig:
-        """The noise the configured DVL and IMU actually produce."""
+        """The noise the configured DVL and IMU (and AHRS, if given: heading aiding with
+        its yaw noise) actually produce."""
         return cls(
             dvl_velocity_std=dvl.velocity_noise_std,
             gyro_sample_std=imu.gyro_noise_density * math.sqrt(imu.rate_hz),
@@ -139,6 +177,7 @@ class DeadReckoningConfig:
             gyro_bias_rw=imu.gyro_bias_rw,
             coast_velocity_std=coast_velocity_std,
             initial_velocity_std=initial_velocity_std,
+            ahrs_yaw_std=None if ahrs is None else ahrs.yaw_noise_std,
         )
 
 
@@ -156,8 +195,11 @@ class DeadReckoner:
     """Integrates DVL velocity and gyro yaw rate; :meth:`increment` cuts an interval.
 
     Feed measurements in time order with :meth:`add` (IMU, DVL, AHRS measurements; AHRS
-    only supplies roll/pitch for levelling). ``increment(t)`` integrates the held values
-    up to ``t`` and returns the interval since the previous cut.
+    supplies roll/pitch for levelling and, with ``config.ahrs_yaw_std`` set, the yaw that
+    aids the heading). ``increment(t)`` integrates the held values up to ``t`` and returns
+    the interval since the previous cut. ``heading`` is the absolute heading estimate
+    (rad, CCW from east) once a compass yaw has been fused, else None; ``gyro_bias`` the
+    current z-gyro bias estimate, rad/s.
     """
 
     def __init__(
@@ -185,6 +227,8 @@ class DeadReckoner:
         self.roll = 0.0
         self.pitch = 0.0
         self.coasting = True  # no DVL lock yet
+        self.b_hat = float(config.gyro_bias_estimate)  # z-gyro bias estimate, rad/s
+        self.psi0: float | None = None  # absolute heading at the interval start (aided)
         self.P = np.zeros((_N, _N))
         self.P[_B, _B] = config.gyro_bias_std**2
         self.P[_NV, _NV] = np.eye(3) * config.initial_velocity_std**2
@@ -207,7 +251,7 @@ class DeadReckoner:
         # top two rows of Ry(pitch) @ Rx(roll): levelled body velocity
         T = np.array([[cp, sp * sr, sp * cr], [0.0, cr, -sr]])
         cz = cr / cp
-        rate = cz * (self.w - c.gyro_bias_estimate)
+        rate = cz * (self.w - self.b_hat)
         phi_mid = self.phi + 0.5 * rate * h
         R = _rot2(phi_mid)
         dp = R @ (T @ self.v) * h
@@ -295,7 +339,7 @@ class DeadReckoner:
                 if wt > 0:
                     T, cz = self._levelling()
                     span = m.t - max(self._t_v, self.t_start)
-                    R = _rot2(self.phi - 0.5 * cz * (self.w - c.gyro_bias_estimate) * span)
+                    R = _rot2(self.phi - 0.5 * cz * (self.w - self.b_hat) * span)
                     G = R @ T * wt
                     self.p = self.p + G @ (v_new - self.v)
                     self._correct(_P, _NV, G, _NV, c.dvl_velocity_std**2, None)
@@ -310,11 +354,53 @@ class DeadReckoner:
                 self.coasting = True
         elif isinstance(m, AHRSMeasurement):
             self.roll, self.pitch = float(m.roll), float(m.pitch)
+            if c.ahrs_yaw_std is not None:
+                self._heading_update(float(m.yaw), c.ahrs_yaw_std**2)
         else:
             raise ValueError(
                 "DeadReckoner.add takes IMUMeasurement, DVLMeasurement or AHRSMeasurement, "
                 f"got {type(m).__name__}"
             )
+
+    @property
+    def heading(self) -> float | None:
+        return None if self.psi0 is None else _wrap(self.psi0 + self.phi)
+
+    @property
+    def gyro_bias(self) -> float:
+        return self.b_hat
+
+    def _heading_update(self, yaw: float, var: float) -> None:
+        """Fuse an absolute yaw measurement ``yaw`` (rad) of variance ``var`` (rad²).
+
+        The first one initialises the absolute heading (its error is the measurement
+        noise: ``e0 := v − dphi`` so that ``e0 + dphi = v``). Later ones are a scalar
+        Schmidt-Kalman update with innovation ``wrap(yaw − psi0 − phi) = −(e0 + dphi) + v``.
+        """
+        if not math.isfinite(yaw):
+            raise ValueError(f"AHRS yaw must be finite, got {yaw!r}")
+        if self.psi0 is None:
+            self.psi0 = _wrap(yaw - self.phi)
+            A = np.eye(_N)
+            A[_E0, :] = 0.0
+            A[_E0, _PHI] = -1.0
+            self.P = A @ self.P @ A.T
+            self.P[_E0, _E0] += var
+            return
+        h = np.zeros(_N)
+        h[_PHI] = h[_E0] = -1.0
+        y = _wrap(yaw - self.psi0 - self.phi)
+        Ph = self.P @ h
+        S = float(h @ Ph) + var
+        if S <= 1e-30:  # perfect compass on an already exact heading: nothing to learn
+            return
+        K = np.where(_UPDATED, Ph / S, 0.0)
+        dx = K * y  # estimate of the error state
+        self.p = self.p - dx[_P]
+        self.phi = self.phi - dx[_PHI]
+        self.b_hat = self.b_hat + dx[_B]  # the bias state is (true − estimate)
+        A = np.eye(_N) - np.outer(K, h)
+        self.P = A @ self.P @ A.T + np.outer(K, K) * var
 
     def add_all(self, measurements) -> None:
         for m in sorted(measurements, key=lambda m: m.t):
@@ -331,9 +417,14 @@ class DeadReckoner:
             t=self.t,
             t_start=self.t_start,
         )
-        # new interval: pose error restarts at zero; held-noise and bias states carry over
-        self.P[:3, :] = 0.0
-        self.P[:, :3] = 0.0
+        # new interval: pose error restarts at zero, the absolute heading error at the new
+        # start is e0 + dphi; held-noise and bias states carry over
+        A = np.eye(_N)
+        A[:3, :] = 0.0
+        A[_E0, _PHI] = 1.0
+        self.P = A @ self.P @ A.T
+        if self.psi0 is not None:
+            self.psi0 = _wrap(self.psi0 + self.phi)
         self.p = np.zeros(2)
         self.phi = 0.0
         self.t_start = self.t

@@ -34,7 +34,10 @@ __all__ = ["NavReadings", "NavSuite", "NavSuiteConfig"]
 class NavSuiteConfig:
     """Sensor configs of one vehicle (defaults: consumer IMU, 600 kHz DVL, Keller-class
     depth, MEMS AHRS, standalone GPS) and the dead reckoner's coast noise, m/s/√s, and
-    prior std of the initial velocity, m/s."""
+    prior std of the initial velocity, m/s. ``heading_aiding``: the dead reckoner fuses
+    the AHRS yaw into its gyro heading and estimates the gyro bias (default True, as a
+    vehicle's navigation does; False = gyro-only heading, which with the consumer IMU's
+    turn-on bias drifts ~20° a minute)."""
 
     imu: IMUConfig = field(default_factory=lambda: IMUConfig.preset("consumer"))
     dvl: DVLConfig = field(default_factory=lambda: DVLConfig.preset("rdi600"))
@@ -43,6 +46,7 @@ class NavSuiteConfig:
     gps: GPSConfig = field(default_factory=lambda: GPSConfig.preset("standalone"))
     coast_velocity_std: float = 0.05
     initial_velocity_std: float = 1.0
+    heading_aiding: bool = True
 
 
 @dataclass(frozen=True)
@@ -82,6 +86,7 @@ class NavSuite:
                 config.imu,
                 coast_velocity_std=config.coast_velocity_std,
                 initial_velocity_std=config.initial_velocity_std,
+                ahrs=config.ahrs if config.heading_aiding else None,
             ),
             t0=t0,
             initial_velocity_body=initial_velocity_body,

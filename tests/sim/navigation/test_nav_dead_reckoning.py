@@ -79,8 +79,11 @@ def run_dr(states, cfg: NavSuiteConfig, seed, cut_every=None):
     return out
 
 
-def suite_cfg(dvl_std=0.01, gyro_density=1e-3, dropout=0.0, bias0=0.0):
+def suite_cfg(dvl_std=0.01, gyro_density=1e-3, dropout=0.0, bias0=0.0, aiding=False):
+    """Gyro-only heading by default (these tests check the DVL + gyro mechanisation and
+    its closed forms; compass aiding is tested in test_nav_consumer_imu.py)."""
     return NavSuiteConfig(
+        heading_aiding=aiding,
         imu=IMUConfig(
             rate_hz=CTRL_HZ,
             gyro_noise_density=gyro_density,
