@@ -35,6 +35,13 @@ landmark slot, meaningful with known association only (slots are then the same p
 landmark in every particle). Landmark indices in :class:`UpdateResult` and
 :meth:`landmarks` refer to the same slots.
 
+Known behaviour (measured on the dense-loop map, 2 loops, dt 0.025 s): with 100 particles
+the filter is inconsistent (pose NEES in the thousands after a loop: resampling depletes the
+path hypotheses, Bailey, Nieto and Nebot, ICRA 2006); with known association the landmark
+RMSE spreads from 2 to 14 m over seeds; with ``association="ml"`` the depleted particle set
+cannot re-associate the first landmarks at loop closure and duplicates them. More particles
+help (1000: consistent over the first loop, median RMSE ~3 m over 2 loops, 10x the time).
+
 The algorithm is hand-written (no library implements FastSLAM 2.0 on arrays);
 resampling comes from :mod:`slam.estimators.resampling`.
 """
