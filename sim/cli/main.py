@@ -28,6 +28,7 @@ COMMANDS: dict[str, str] = {
     "match": "match_cmd",
     "uwsn": "uwsn_cmd",
     "slam-experiment": "slam_experiment_cmd",
+    "sss-slam": "sss_slam_cmd",
     "bench": "bench_cmd",
     "sweep": "sweep_cmd",
     "dataset": "dataset_cmd",

@@ -320,14 +320,19 @@ class SidescanProcessor:
         return 1.0 / dt if dt > 0 else 10.0
 
 
-def make_sss_prepare(log_compressed: bool, dynamic_range_db: float, looks: int = 3):
+def make_sss_prepare(
+    log_compressed: bool, dynamic_range_db: float, looks: int = 3, normalization: str = "mira"
+):
     """The front end's input conditioning for a side-scan window, in order:
 
     1. back to linear intensity if the sonar log-compressed its output for display
        (x in [0, 1] spans ``dynamic_range_db``; the offset cancels in step 2);
-    2. MIRA normalization (slam.frontend.normalization.mira_normalize, thesis Ch. 4.1:
-       per side, mixed-exponential fit of the range profile, 9 pings averaged around the
-       window's middle ping) -> ~1 on average seabed;
+    2. normalization -> ~1 on average seabed, by ``normalization``:
+       ``"mira"`` (slam.frontend.normalization.mira_normalize, thesis Ch. 4.1: per side,
+       mixed-exponential fit of the range profile, 9 pings averaged around the window's
+       middle ping), or ``"column-median"``: each range sample divided by its median over
+       the window's pings (the usual empirical along-track normalization; it also removes
+       range-gain shapes the two exponentials cannot fit, such as a rise near nadir);
     3. the water column (slant range < altitude of that ping) set to the seabed level 1,
        so the threshold separates highlights from seabed, not seabed from water;
     4. ``looks`` x ``looks`` incoherent averaging (cv2.blur) against single-look speckle;
@@ -337,13 +342,19 @@ def make_sss_prepare(log_compressed: bool, dynamic_range_db: float, looks: int =
 
     from slam.frontend.normalization import mira_normalize
 
+    if normalization not in ("mira", "column-median"):
+        raise ValueError(f"normalization: got {normalization!r}; allowed: mira, column-median")
+
     def prepare(img: np.ndarray, altitudes: np.ndarray, slant: np.ndarray) -> np.ndarray:
         lin = (
             np.power(10.0, img * (dynamic_range_db / 10.0))
             if log_compressed
             else img.astype(np.float64)
         )
-        m = mira_normalize(lin.astype(np.float32), average=9).normalized
+        if normalization == "mira":
+            m = mira_normalize(lin.astype(np.float32), average=9).normalized
+        else:
+            m = lin / np.maximum(np.median(lin, axis=0, keepdims=True), 1e-12)
         S = m.shape[1] // 2
         wc = slant[None, :] < altitudes[:, None]  # (P, S) near -> far
         full = np.concatenate([wc[:, ::-1], wc], axis=1)

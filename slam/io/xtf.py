@@ -135,6 +135,9 @@ def read_xtf(path: str | Path, *, channels: tuple[int, int] | None = None) -> Wa
         v = np.array([getattr(p, attr, 0.0) for p in pings], dtype=np.float64)
         if np.any(v != 0.0):
             nav[key] = v
+    if "x" in nav or "y" in nav:
+        # XTF file header NavUnits: 0 = metres (projected), 3 = degrees (lon, lat)
+        nav["xtf_nav_units"] = np.full(len(pings), float(file_header.NavUnits))
     return Waterfall(
         intensity=np.concatenate([port, stbd], axis=1),
         samples_per_side=s,
