@@ -1,7 +1,10 @@
 """Sweep throughput: runs/s serial vs 2 local worker processes vs local Ray with 2 workers,
-measured side by side on the same plan (dense-loop SLAM runs, one loop each).
+measured side by side on the same plan. Default plan: 4 seeds of a 40 s shipwreck-survey
+scenario run (physics, sonar, front end, SLAM; ~10 s each), long enough that the workers'
+start-up (a fresh interpreter importing numpy, mujoco, ...) does not dominate.
 
-    undersea bench sweep [--runs 8] [--json]
+    undersea bench sweep [--runs 4] [--target shipwreck-survey] [--json]
+    undersea bench sweep --target slam:dense-loop --runs 40   # many short SLAM runs
 
 Target (issue 7): >= 1.8x with 2 workers.
 """
@@ -17,15 +20,20 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="undersea bench sweep")
-    ap.add_argument("--runs", type=int, default=8)
-    ap.add_argument("--target", default="slam:dense-loop")
+    ap.add_argument("--runs", type=int, default=4)
+    ap.add_argument("--target", default="shipwreck-survey")
+    ap.add_argument("--duration", type=float, default=40.0, help="scenario duration_s override")
     ap.add_argument("--no-ray", action="store_true")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
     from sim.sweep import SweepPlan, run_sweep
 
-    plan = SweepPlan(args.target, runs=args.runs, vary={"loops": [1]})
+    if args.target.startswith("slam:"):
+        vary = {"loops": [1]}
+    else:  # no recording: the benchmark measures the runs, not rerun's file writing
+        vary = {"duration_s": [args.duration], "outputs.recording": [False], "outputs.figures": [False]}
+    plan = SweepPlan(args.target, runs=args.runs, vary=vary)
     modes = [("serial", {"workers": 1}), ("local-2", {"workers": 2})]
     if not args.no_ray:
         try:
@@ -35,7 +43,10 @@ def main(argv: list[str] | None = None) -> int:
         except ImportError:
             print("ray not installed: skipping the Ray mode (pip install 'undersea[cluster]')",
                   file=sys.stderr)
-    figures = {"runs": args.runs, "target": args.target}
+    import os
+
+    figures = {"runs": args.runs, "target": args.target, "vary": vary,
+               "load_avg_1min_at_start": os.getloadavg()[0]}
     with tempfile.TemporaryDirectory() as tmp:
         for name, kw in modes:
             res = run_sweep(plan, Path(tmp) / name, progress=False, **kw)
