@@ -18,13 +18,19 @@ for a mass–damper–spring plant; Åström & Murray §11.3 for the PI):
   demand θ_d = clip(kp_z e + ki_z ∫e, ±θ_max), kp_z = 1/Δ_z rad/m with the vertical
   lookahead Δ_z = 2 L, ki_z = kp_z (U/Δ_z)/10 (trims out residual buoyancy).
 * LOS lookahead Δ = clip(3 L, 3, 10) m (Fossen recommends 1.5–2.5 L for ships; a little
-  more for slow, under-actuated AUVs), cruise speed = min(nominal, 0.8 U_max) with
-  U_max from d_l U + d_q U² = X_max, and, for thruster-steered vehicles, low enough that
-  the Munk moment (A22 − A11) U² · 0.3 rad (yaw; A33 in pitch) takes at most half the
-  yaw/pitch authority: the world model has no hull lift or fins to stabilise a box
-  hull, so above that speed the heading loop saturates and limit-cycles.
+  more for slow, under-actuated AUVs), at least the steady turn radius at cruise speed
+  (a shorter lookahead demands turns the vehicle cannot fly), cruise speed = min(nominal, U_T) with the steady
+  drag d_l U_T + d_q U_T² = 0.8 X_max (``THRUST_RESERVE``: 20 % of the surge authority
+  left for acceleration and current changes), and, for vehicles without fins, low
+  enough that the net destabilising moment at a 0.3 rad heading/pitch error takes at
+  most half the yaw/pitch authority: (A22 − A11) U² · 0.3 in yaw, and in pitch the Munk
+  moment less the hydrostatic righting moment, ((A33 − A11) U² − ρ g V BG) · 0.3 (both
+  act on the same angle). A box hull has no fins to stabilise it, so above that speed
+  the heading/pitch loop saturates and limit-cycles.
 * Munk moment as a negative stiffness (Fossen 2011 §6.4): k_yaw = −(A22 − A11) U²,
-  k_pitch = ρ g V BG − (A33 − A11) U²; the P gain beats it (kp = M ω² − k).
+  k_pitch = ρ g V BG − (A33 − A11) U²; fins add their passive lift as a positive
+  stiffness ½ρ S C_Lα |x_f| U² (``fin_stiffness``); the P gain beats the rest
+  (kp = M ω² − k).
 
 τ_max per DOF is what the vehicle's thrust allocation (least squares over its controlled
 DOFs, as sim.thrusters.ThrusterBank.allocate) delivers for a pure demand in that DOF
@@ -45,6 +51,8 @@ __all__ = [
     "AutopilotGains",
     "VehiclePlant",
     "design_gains",
+    "fin_damping",
+    "fin_stiffness",
     "max_wrench",
     "max_wrench_from_columns",
     "split_authority",
@@ -53,8 +61,11 @@ __all__ = [
 DOF = ("X", "Y", "Z", "K", "M", "N")
 GRAVITY = 9.80665
 
-#: nominal survey speed per vehicle kind, m/s (capped by thrust in design_gains)
+#: nominal survey speed per vehicle kind, m/s (capped by thrust in design_gains); sources
+#: in each vehicle's README (assets/vehicles/<kind>/README.md, "Nominal speed")
 NOMINAL_SPEED = {"alister9": 1.5, "ixn": 1.0, "naiad": 0.6, "saga": 0.5, "rexrov": 0.5}
+#: share of the surge authority the steady drag at cruise speed may take
+THRUST_RESERVE = 0.8
 
 
 @dataclass(frozen=True)
@@ -65,7 +76,7 @@ class VehiclePlant:
     stiffness (6,) restoring, N·m/rad (roll: ρ g V BG; pitch: that minus the Munk term
     (A33 − A11) U²; yaw: −(A22 − A11) U²; negative = destabilising); net_buoyancy B − W, N;
     max_effort (6,) N / N·m (inf = unknown); controlled (6,) bool; cruise_speed m/s;
-    finned: steered by control surfaces whose authority needs speed (torpedo).
+    finned: steered by control surfaces whose authority needs speed (torpedo, IXN).
     """
 
     kind: str
@@ -91,9 +102,14 @@ class VehiclePlant:
         rho: float = 1025.0,
         cruise_speed: float | None = None,
         finned: bool = False,
+        fin_stiffness=None,
+        fin_damping=None,
     ) -> VehiclePlant:
         """From a ``sim.hydrodynamics.HydroParams`` (mass, inertia (3,), volume, r_cb,
-        added_mass, linear_damping, quadratic_damping)."""
+        added_mass, linear_damping, quadratic_damping). fin_stiffness (6,): restoring
+        moment of the fins' passive lift per rad and per (m/s)² (see ``fin_stiffness``);
+        fin_damping (6,): their damping per m/s of surge speed (``fin_damping``), added to
+        the linear damping at the cruise speed."""
         m_rb = np.concatenate([[hydro.mass] * 3, np.asarray(hydro.inertia, float)])
         am = np.asarray(hydro.added_mass, float)
         B = rho * GRAVITY * hydro.volume
@@ -102,26 +118,37 @@ class VehiclePlant:
         controlled = np.asarray(controlled, bool)
         dl = np.asarray(hydro.linear_damping, float)
         dq = np.asarray(hydro.quadratic_damping, float)
-        u_max = _max_speed(dl[0], dq[0], max_effort[0])
+        u_thrust = _max_speed(dl[0], dq[0], THRUST_RESERVE * max_effort[0])
         u = NOMINAL_SPEED.get(kind, 1.0) if cruise_speed is None else cruise_speed
-        u = float(min(u, 0.8 * u_max))
+        u = float(min(u, u_thrust))
+        righting = max(0.0, B * bg)
         if not finned:
-            # the destabilising Munk moment (A_jj - A_11) U² at a 0.3 rad heading/pitch
-            # error may take at most half the yaw/pitch authority (propeller-driven
-            # authority does not grow with speed; fin authority does, so a finned
-            # vehicle is exempt)
-            for dof, a_side in ((5, am[1]), (4, am[2])):
-                excess = (a_side - am[0]) * 0.3
-                if excess > 0 and controlled[dof] and math.isfinite(max_effort[dof]):
-                    u = min(u, math.sqrt(0.5 * max_effort[dof] / excess))
+            # the net destabilising moment at a 0.3 rad heading/pitch error, Munk
+            # (A_jj - A_11) U² less the hydrostatic righting B·BG (pitch), may take at most
+            # half the yaw/pitch authority (propeller-driven authority does not grow with
+            # speed; fin authority does, so a finned vehicle is exempt)
+            for dof, a_side, k0 in ((5, am[1], 0.0), (4, am[2], righting)):
+                munk = a_side - am[0]
+                if munk > 0 and controlled[dof] and math.isfinite(max_effort[dof]):
+                    u = min(u, math.sqrt((0.5 * max_effort[dof] / 0.3 + k0) / munk))
         # restoring stiffness: hydrostatic B·BG in roll and pitch, minus the Munk moment
         # (A_33 - A_11) U² θ in pitch and (A_22 - A_11) U² ψ in yaw (Fossen 2011 §6.4),
         # linearised at the cruise speed — destabilising for bodies that are longer than
         # they are high/wide, and it must be beaten by the P gain.
         k = np.zeros(6)
-        k[3] = max(0.0, B * bg)
-        k[4] = max(0.0, B * bg) - (am[2] - am[0]) * u * u
+        k[3] = righting
+        k[4] = righting - (am[2] - am[0]) * u * u
         k[5] = -(am[1] - am[0]) * u * u
+        if fin_stiffness is not None:
+            # fins restore the angle of attack. In pitch a hovering vehicle flies level
+            # (angle of attack ≈ pitch), so it counts; in yaw it acts on the sideslip, not
+            # on the heading error (a turn rotates the velocity with the hull), so it may
+            # only cancel the Munk term, never stiffen the heading loop.
+            kf = np.asarray(fin_stiffness, float) * u * u
+            k[4] += kf[4]
+            k[5] = min(0.0, k[5] + kf[5])
+        if fin_damping is not None:
+            dl = dl + np.asarray(fin_damping, float) * u
         return cls(
             kind=kind,
             length=float(length),
@@ -143,6 +170,37 @@ def _max_speed(dl: float, dq: float, x_max: float) -> float:
     if dq <= 0:
         return x_max / dl if dl > 0 else math.inf
     return (-dl + math.sqrt(dl * dl + 4 * dq * x_max)) / (2 * dq)
+
+
+def fin_stiffness(columns, is_fin, lift_gain) -> np.ndarray:
+    """(6,) restoring moment per rad of incidence and per (m/s)² of the fins' passive lift.
+
+    A fin channel with column c = [d; r × d] and lift gain g = ½ρ S C_Lα produces the
+    wrench −g |u| (c·ν_r) c (sim.thrusters.ThrusterBank.step). At surge speed U with a
+    sideslip (heave) angle β the cross-flow is c_y U β (c_z U β), so the yaw (pitch)
+    moment is −g c_y c_N U² β (−g c_z c_M U² β); as a restoring stiffness in the sign
+    convention of the Munk term (yaw: N per sideslip rad, positive = weathercock; pitch:
+    M per heave-incidence rad, positive = restoring) that is
+    k_N = −Σ g c_y c_N and k_M = +Σ g c_z c_M — positive for fins aft of the CG."""
+    cols = np.asarray(columns, float)
+    fin = np.asarray(is_fin, bool)
+    g = np.asarray(lift_gain, float)
+    out = np.zeros(6)
+    c = cols[fin]
+    out[5] = -float(np.sum(g[fin] * c[:, 1] * c[:, 5]))
+    out[4] = float(np.sum(g[fin] * c[:, 2] * c[:, 4]))
+    return out
+
+
+def fin_damping(columns, is_fin, lift_gain) -> np.ndarray:
+    """(6,) linear damping of the fins' passive lift per m/s of surge speed: the wrench
+    −g |u| (c·ν_r) c has the diagonal terms g |u| c_j² (N·s/m, N·m·s/rad per m/s) — e.g.
+    the yaw damping g U x_f² of a rudder at lever x_f, which bounds a finned vehicle's
+    turn rate."""
+    cols = np.asarray(columns, float)
+    fin = np.asarray(is_fin, bool)
+    g = np.asarray(lift_gain, float)
+    return (g[fin, None] * cols[fin] ** 2).sum(axis=0) if fin.any() else np.zeros(6)
 
 
 def max_wrench(specs, controlled, speed: float) -> np.ndarray:
@@ -307,7 +365,7 @@ def design_gains(plant: VehiclePlant) -> AutopilotGains:
         station_surge=station_surge,
         depth_to_pitch=depth_to_pitch,
         depth_by_pitch=bool(depth_by_pitch),
-        lookahead=float(min(max(3.0 * plant.length, 3.0), 10.0)),
+        lookahead=float(max(min(max(3.0 * plant.length, 3.0), 10.0), turn_radius)),
         cruise_speed=U,
         surge_damping=(float(dl[0]), float(dq[0])),
         net_buoyancy=float(plant.net_buoyancy),

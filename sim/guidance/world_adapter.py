@@ -20,6 +20,8 @@ from sim.guidance.gains import (
     VehiclePlant,
     _max_speed,
     design_gains,
+    fin_damping,
+    fin_stiffness,
     max_wrench_from_columns,
     split_authority,
 )
@@ -89,6 +91,7 @@ def plant_for(world, name: str, cruise_speed: float | None = None) -> VehiclePla
     x_max = max_wrench_from_columns(*args, dofs, 0.0)[0]
     u_fin = min(u0, 0.8 * _max_speed(hydro.linear_damping[0], hydro.quadratic_damping[0], x_max))
     tmax = split_authority(*args, dofs, u_fin)
+    fins = (bank.columns[lo:hi], bank.is_fin[lo:hi], bank.lift_gain[lo:hi])
     return VehiclePlant.from_hydro(
         h.kind,
         h.model.envelope[0],
@@ -98,6 +101,8 @@ def plant_for(world, name: str, cruise_speed: float | None = None) -> VehiclePla
         rho=world.water.density,
         cruise_speed=u0,
         finned=bool(np.any(bank.is_fin[lo:hi])),
+        fin_stiffness=fin_stiffness(*fins),
+        fin_damping=fin_damping(*fins),
     )
 
 

@@ -3,7 +3,12 @@ the hydrodynamics and the thrusters need (sources: each vehicle's README.md).
 
 Mass and inertia are read from the MJCF (one source of truth). Added mass comes from
 Lamb's ellipsoid formulas on the vehicle envelope (``ellipsoid_added_mass``) unless a
-published matrix exists (RexROV: UUV Simulator). Quadratic damping comes from drag
+published matrix exists (RexROV: UUV Simulator). For open-frame vehicles (water flows
+through the frame: the enclosing ellipsoid overestimates the entrained fluid) the
+translational terms are scaled by ``OPEN_FRAME_ADDED_MASS_SCALE``, the ratio of the
+published added mass of an open-frame ROV of the same class (BlueROV2 Heavy) to the Lamb
+ellipsoid on its own envelope. Fin lift slopes come from low-aspect-ratio wing theory
+(``fin_lift_slope``). Quadratic damping comes from drag
 coefficients by strip theory (``strip_theory_quadratic_damping``); linear damping is
 the quadratic damping linearised at a low reference speed (an assumption stated per
 vehicle). Buoyancy: the vehicles are trimmed (ballasted) to the requested net buoyancy
@@ -21,6 +26,44 @@ from sim.hydrodynamics import HydroParams, ellipsoid_added_mass, strip_theory_qu
 from sim.thrusters import ThrusterSpec
 
 ASSETS = Path(__file__).resolve().parents[2] / "assets" / "vehicles"
+
+# BlueROV2 Heavy (open aluminium/HDPE frame, 13.5 kg, 0.4571 x 0.575 x 0.2539 m, fill
+# V_disp / V_envelope = 0.0134 / 0.0667 = 0.20): added mass [X_u', Y_v', Z_w'] in kg from
+# von Benzon et al. (2022), "An Open-Source Benchmark Simulator: Control of a BlueROV2
+# Underwater Robot", J. Mar. Sci. Eng. 10(12) 1898, parameter table (fresh water).
+_BLUEROV2_HEAVY_ENVELOPE = (0.4571, 0.575, 0.2539)
+_BLUEROV2_HEAVY_ADDED_MASS = (6.3567, 7.1206, 18.6863)
+
+
+def _open_frame_scale() -> tuple[float, ...]:
+    """Per-DOF ratio published / Lamb-ellipsoid added mass of the BlueROV2 Heavy
+    (translations: ≈ [0.49, 0.81, 0.48]); rotations 1 (its near-square planform makes the
+    Lamb yaw term ~0 and the ratio meaningless; rotational added mass does not enter the
+    Munk moment)."""
+    L, W, H = _BLUEROV2_HEAVY_ENVELOPE
+    lamb = ellipsoid_added_mass(L / 2, W / 2, H / 2, 1000.0)
+    return (*(float(a / b) for a, b in zip(_BLUEROV2_HEAVY_ADDED_MASS, lamb[:3])), 1.0, 1.0, 1.0)
+
+
+#: per-DOF factor on the Lamb-ellipsoid added mass of an open-frame vehicle (fill ≈ 20–26 %)
+OPEN_FRAME_ADDED_MASS_SCALE = _open_frame_scale()
+
+
+def fin_lift_slope(span: float, chord: float) -> float:
+    """Lift-curve slope C_Lα (1/rad) of a low-aspect-ratio fin mounted on a hull.
+
+    Whicker & Fehlner (1958, DTMB Report 933), unswept planform:
+        C_Lα = 1.8 π A_e / (1.8 + sqrt(A_e² + 4)),
+    with the effective aspect ratio A_e = 2 span / chord (the hull acts as a reflection
+    plane at the fin root, doubling the geometric aspect ratio). Tends to 1.8 π A_e / 3.8
+    (within 6 % of Jones' slender-wing π A_e / 2) for A_e → 0 and to 1.8 π (thin-airfoil
+    2π less viscous losses) for A_e → ∞. span, chord in m (> 0)."""
+    if not (np.isfinite(span) and span > 0 and np.isfinite(chord) and chord > 0):
+        raise ValueError(f"fin span and chord must be > 0 m, got span={span!r}, chord={chord!r}")
+    ae = 2.0 * span / chord
+    return float(1.8 * np.pi * ae / (1.8 + np.sqrt(ae * ae + 4.0)))
+
+
 SENSOR_SITES = ("sss_port", "sss_starboard", "fls", "msis", "dvl", "imu", "pressure")
 DOF_NAMES = ("X", "Y", "Z", "K", "M", "N")
 
@@ -55,6 +98,7 @@ class VehicleModel:
     actuators: dict[str, PropellerDef | FinDef]  # keyed by MJCF site name, in channel order
     controlled_dofs: tuple[str, ...]
     added_mass: tuple[float, ...] | None = None  # published diag (6,), else Lamb ellipsoid
+    added_mass_scale: tuple[float, ...] | None = None  # factor (6,) on the Lamb ellipsoid
     linear_damping: tuple[float, ...] | None = None  # published (6,), else derived
     quadratic_damping: tuple[float, ...] | None = None  # published (6,), else derived
 
@@ -75,6 +119,8 @@ class VehicleModel:
             if self.added_mass is not None
             else ellipsoid_added_mass(L / 2, W / 2, H / 2, rho)
         )
+        if self.added_mass is None and self.added_mass_scale is not None:
+            am = am * np.array(self.added_mass_scale)
         dq = (
             np.array(self.quadratic_damping)
             if self.quadratic_damping is not None
@@ -130,7 +176,9 @@ class VehicleModel:
         return out
 
 
-_T200 = PropellerDef(40.0, 32.0, 0.15)
+# BlueRobotics T200 data sheet at 16 V: 5.1 kgf forward, 4.1 kgf reverse
+_T200 = PropellerDef(5.1 * 9.80665, 4.1 * 9.80665, 0.15)
+_IXN_FIN_AREA = 2 * 0.2 * 0.25  # m², a pair of fins of span 0.2 m and chord 0.25 m
 
 VEHICLES: dict[str, VehicleModel] = {
     "alister9": VehicleModel(
@@ -169,6 +217,20 @@ VEHICLES: dict[str, VehicleModel] = {
             "thruster_vertical_aft": PropellerDef(40.0, 32.0, 0.2),
             "thruster_lateral_fore": PropellerDef(20.0, 20.0, 0.2),
             "thruster_lateral_aft": PropellerDef(20.0, 20.0, 0.2),
+            # stern control surfaces (README: sized by the yaw static-stability criterion
+            # ½ρ S C_Lα |x_f| ≥ A22 − A11); per fin chord 0.25 m, span 0.2 m
+            "fin_rudder": FinDef(
+                area=_IXN_FIN_AREA,
+                lift_slope=fin_lift_slope(0.2, 0.25),
+                max_deflection=0.35,
+                time_constant=0.1,
+            ),
+            "fin_elevator": FinDef(
+                area=_IXN_FIN_AREA,
+                lift_slope=fin_lift_slope(0.2, 0.25),
+                max_deflection=0.35,
+                time_constant=0.1,
+            ),
         },
         controlled_dofs=("X", "Y", "Z", "M", "N"),
     ),
@@ -190,6 +252,7 @@ VEHICLES: dict[str, VehicleModel] = {
             "thruster_vertical_aft": _T200,
         },
         controlled_dofs=("X", "Y", "Z", "M", "N"),
+        added_mass_scale=OPEN_FRAME_ADDED_MASS_SCALE,
     ),
     "saga": VehicleModel(
         kind="saga",
@@ -208,6 +271,7 @@ VEHICLES: dict[str, VehicleModel] = {
             "thruster_vertical": PropellerDef(20.0, 15.0, 0.1),
         },
         controlled_dofs=("X", "Y", "Z", "N"),
+        added_mass_scale=OPEN_FRAME_ADDED_MASS_SCALE,
     ),
     "rexrov": VehicleModel(
         kind="rexrov",

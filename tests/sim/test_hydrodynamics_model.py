@@ -223,7 +223,7 @@ def test_roll_30deg_decays_with_righting_sign_and_period(kind):
 def _surge_command(kind: str) -> np.ndarray:
     return {
         "alister9": np.array([1.0, 0.0, 0.0]),
-        "ixn": np.array([1.0, 1.0, 0, 0, 0, 0]),
+        "ixn": np.array([1.0, 1.0, 0, 0, 0, 0, 0, 0]),  # stern pair; fins at 0
         "naiad": np.array([1.0, 1.0, 1.0, 1.0, 0, 0]),
         "saga": np.array([1.0, 1.0, 1.0, 1.0, 0]),
         "rexrov": np.array([1.0, 1.0, 1.0, 1.0, 0, 0, 0, 0]),

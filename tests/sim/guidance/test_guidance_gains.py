@@ -63,9 +63,9 @@ def make_plant(max_effort=(100.0, 50, 80, 5, 10, 20), controlled=ALL, mass=50.0)
 def test_plant_from_hydro_adds_added_mass_and_caps_cruise_speed():
     p = make_plant(max_effort=(20.0, 50, 80, 5, 10, 20))
     np.testing.assert_allclose(p.inertia, [55, 90, 90, 2.5, 8, 8])
-    # U_max from 10 U + 30 U² = 20 → U = (-10 + sqrt(100 + 2400)) / 60
-    u_max = (-10 + math.sqrt(100 + 4 * 30 * 20)) / 60
-    assert p.cruise_speed == pytest.approx(min(1.0, 0.8 * u_max))
+    # steady drag at cruise = 0.8 X_max: 10 U + 30 U² = 16 → U = (-10 + sqrt(100 + 1920)) / 60
+    u_cruise = (-10 + math.sqrt(100 + 4 * 30 * 16)) / 60
+    assert p.cruise_speed == pytest.approx(min(1.0, u_cruise))
     assert p.stiffness[3] == pytest.approx(50.0 * 9.80665 * 0.02)  # ρ g V · BG, V = m/ρ
 
 

@@ -51,7 +51,7 @@ def test_four_swarms_vehicles_in_one_world_match_each_alone():
     pos = {k: (-30.0 + 20.0 * i, 10.0, -15.0) for i, k in enumerate(kinds)}
     cmds = {
         "alister9": [0.7, 0.2, -0.1],
-        "ixn": [0.5, 0.4, 0.1, -0.1, 0.2, 0.0],
+        "ixn": [0.5, 0.4, 0.1, -0.1, 0.2, 0.0, 0.3, -0.2],
         "naiad": [0.3, 0.1, -0.2, 0.4, 0.2, 0.1],
         "saga": [0.2, 0.5, -0.3, 0.1, -0.2],
     }
