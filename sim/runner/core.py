@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.runner.fls_msis import FLS_FRONTEND, MSIS_FRONTEND, PolarFrontend
 from sim.runner.lagged import LaggedSlam, apply_increment
 from sim.runner.metrics import detection_metrics, landmark_metrics, pose_metrics
 from sim.runner.output import RunDirectory
@@ -37,7 +38,6 @@ from sim.scenario.schema import Scenario, SonarSpec, VehicleSpec
 from slam.frontend.sidescan_windows import (
     PingRecord,
     SidescanProcessor,
-    make_fls_prepare,
     make_sss_prepare,
 )
 from slam.types import Odometry
@@ -151,6 +151,7 @@ class SonarRuntime:
     frames: int = 0
     sss_pings: list = field(default_factory=list)  # (pose_true, ground range) for the mosaic
     horizon: float = -math.inf
+    polar: PolarFrontend | None = None  # FLS / MSIS front end (sim.runner.fls_msis)
 
 
 @dataclass
@@ -189,15 +190,17 @@ def _yaw(q) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
-def _segmenter(method: str, preset: str, is_fls: bool):
-    """Adapter: float image -> (labels, regions) with slam.frontend.segmentation."""
+def _segmenter(method: str, preset: str, is_fls: bool = False):
+    """Adapter: image -> (labels, regions) with slam.frontend.segmentation. ``"auto"`` is
+    the front end's size rule for the actual image, for every sonar: the reference's
+    ``fls`` preset (a = 40 px, N_max = 600) belongs to its 1920 x 932 frames and removes
+    small objects of a 256 x 128 frame (sim.runner.fls_msis)."""
     from slam.frontend.segmentation.methods import segment
 
+    del is_fls
+
     def run(img: np.ndarray):
-        p = preset
-        if p == "auto" and is_fls:
-            p = "fls"
-        res = segment(img, method=method, params=p)
+        res = segment(img, method=method, params=preset)
         return res.labels, list(res.regions)
 
     return run
@@ -310,11 +313,40 @@ class ScenarioRun:
             return SonarRuntime(sp, "sss", son, 1.0 / cfg.ping_rate_hz, rng, processor=proc)
         if sp.preset == "msis":
             son = MSISSonar(cfg, *common, h.site_ids["msis"], **kw)
+            ang = son.head_angles()
+            polar = None
+            if fe.method != "none":
+                polar = PolarFrontend(
+                    "msis",
+                    _segmenter(fe.method, fe.preset),
+                    ranges=cfg.min_range + (np.arange(cfg.n_bins) + 0.5) * cfg.bin_width,
+                    angles=ang,
+                    bin_width=cfg.bin_width,
+                    angular_cell=math.radians(max(cfg.horizontal_beamwidth_deg, cfg.step_deg)),
+                    log_compressed=cfg.acoustic.log_compression,
+                    dynamic_range_db=cfg.acoustic.dynamic_range_db,
+                    config=MSIS_FRONTEND,
+                )
             return SonarRuntime(
-                sp, "msis", son, 1.0 / cfg.ping_rate_hz, rng, msis_angles=son.head_angles()
+                sp, "msis", son, 1.0 / cfg.ping_rate_hz, rng, msis_angles=ang, polar=polar
             )
         son = ForwardLookingSonar(cfg, *common, h.site_ids["fls"], **kw)
-        return SonarRuntime(sp, "fls", son, 1.0 / cfg.ping_rate_hz, rng)
+        polar = None
+        if fe.method != "none":
+            polar = PolarFrontend(
+                "fls",
+                _segmenter(fe.method, fe.preset),
+                ranges=son.ranges,
+                angles=son.bearings,
+                bin_width=cfg.bin_width,
+                angular_cell=math.radians(
+                    max(cfg.beamwidth_deg, cfg.horizontal_fov_deg / cfg.n_beams)
+                ),
+                log_compressed=cfg.acoustic.log_compression,
+                dynamic_range_db=cfg.acoustic.dynamic_range_db,
+                config=FLS_FRONTEND,
+            )
+        return SonarRuntime(sp, "fls", son, 1.0 / cfg.ping_rate_hz, rng, polar=polar)
 
     def _make_estimator(self, vs: VehicleSpec, rng):
         from slam.estimators import make_estimator
@@ -478,7 +510,7 @@ class ScenarioRun:
             ang = s.msis_angles[s.msis_k]
             ping = s.sonar.ping(d, s.rng, float(ang))
             self.timer.add("sonar", t0)
-            s.msis_pings.append((ping, pose))
+            s.msis_pings.append((ping, pose, self._nav_pose(v, pose)))
             s.msis_k += 1
             if s.msis_k >= len(s.msis_angles):
                 self._msis_scan(v, s)
@@ -533,170 +565,112 @@ class ScenarioRun:
     def _seabed_z(self, xy) -> float:
         return float(self.world.seabed_height(np.asarray(xy, float).reshape(1, 2))[0])
 
-    def _fls_frame(self, v: VehicleRuntime, s: SonarRuntime, frame, pose) -> None:
-        from slam.frontend.observation import FLSGeometry, observe_regions
+    @staticmethod
+    def _nav_pose(v: VehicleRuntime, pose_true: np.ndarray) -> np.ndarray:
+        """The navigation (dead-reckoning) pose at the current time: what the FLS / MSIS
+        persistence filter places candidates with. Without SLAM there is no odometry
+        chain and nothing consumes observations; the true pose then serves detection
+        scoring only."""
+        return np.array(v.dr_pose[-1], float) if v.dr_pose else np.asarray(pose_true, float)
 
+    def _fls_frame(self, v: VehicleRuntime, s: SonarRuntime, frame, pose) -> None:
+        """One FLS frame through sim.runner.fls_msis; confirmed detections are scored,
+        keyframed ones become observations at the frame's time."""
         t0 = time.perf_counter()
         s.frames += 1
-        fe = v.spec.frontend
-        if fe.method == "none":
+        if s.polar is None:
             return
-        cfg = s.sonar.config
-        img = make_fls_prepare(cfg.acoustic.log_compression, cfg.acoustic.dynamic_range_db)(
-            frame.image
-        )
-        labels, regions = _segmenter(fe.method, fe.preset, True)(img)
-        geom = FLSGeometry(
-            range_max=float(cfg.max_range),
-            n_bins=cfg.n_bins,
-            n_beams=cfg.n_beams,
-            horizontal_fov_deg=cfg.horizontal_fov_deg,
-            beamwidth_deg=cfg.beamwidth_deg,
-            range_min=float(cfg.min_range),
+        res = s.polar.process(
+            frame.image,
             altitude=v.altitude_nav if np.isfinite(v.altitude_nav) else None,
+            poses_nav=self._nav_pose(v, pose),
+            times=frame.time,
         )
-        max_area = 0.02 * frame.image.size
-        # footprint of a cell at the region's range: bin width x (range x beam spacing)
-        beam = np.radians(cfg.horizontal_fov_deg) / cfg.n_beams
-        regs = [
-            r
-            for r in regions
-            if 4 <= r.area_px <= max_area
-            and r.area_px
-            * cfg.bin_width
-            * max(float(frame.ranges[min(round(r.centroid_rc[0]), len(frame.ranges) - 1)]), 0.5)
-            * beam
-            >= fe.min_area_m2
-        ]
-        dets = []
-        if regs:
-            c = np.array([r.centroid_rc for r in regs])
-            e = np.array([(r.bbox[2] - r.bbox[0], r.bbox[3] - r.bbox[1]) for r in regs], float)
-            obs = observe_regions(geom, c, e, t=frame.time, on_invalid="skip")
-            lab = frame.labels
-            for o in obs:
-                r = regs[o.meta["index"]]
-                m = labels == r.label
-                objs = lab[m][lab[m] > 0]
-                oid = int(np.bincount(objs).argmax()) if objs.size else 0
-                tp = objs.size >= 0.1 * m.sum()
-                wxy = pose[:2] + o.z[0] * np.array(
-                    [np.cos(pose[2] + o.z[1]), np.sin(pose[2] + o.z[1])]
-                )
-                dets.append((o, oid, tp, wxy))
-        bg = frame.labels == 0
-        kept = np.isin(labels, [r.label for r in regs]) if regs else np.zeros(labels.shape, bool)
-        v.fp_pixels += int(np.count_nonzero(kept & bg))
-        v.bg_pixels += int(np.count_nonzero(bg))
-        v.imaged_ids |= set(np.unique(frame.labels[frame.labels > 0]).tolist())
-        from slam.frontend.sidescan_windows import Detection
-
-        for o, oid, tp, wxy in dets:
-            v.detections.append(
-                (
-                    s.spec.name,
-                    Detection(
-                        frame.time,
-                        s.frames,
-                        "fls",
-                        float(o.z[0]),
-                        float(o.z[0]),
-                        0,
-                        o,
-                        oid,
-                        bool(tp),
-                        wxy,
-                    ),
-                )
-            )
-        if v.lagged is not None and dets:
-            self._add_obs(v, frame.time, [d[0] for d in dets])
+        self._polar_done(v, s, res, frame.labels, np.broadcast_to(pose, (1, 3)), "fls")
         self.timer.add("frontend", t0)
         if self.rec is not None and s.frames % max(1, self.scn.outputs.log_sonar_every * 5) == 0:
             from sim.viz import rerun_log as L
 
             L.set_time(self.rec, self.world.time)
-            overlay = np.where(labels > 0, np.where(frame.labels > 0, 2, 255), 0).astype(np.uint16)
+            overlay = np.where(res.groups > 0, np.where(frame.labels > 0, 2, 255), 0).astype(
+                np.uint16
+            )
             L.log_sonar_image(self.rec, v.spec.name, s.spec.name, frame.image, overlay)
 
-    def _msis_scan(self, v: VehicleRuntime, s: SonarRuntime) -> None:
-        """A completed MSIS scan: segmented as an (angles, bins) image; each detection is
-        tied to the ping of its centroid row (its own time)."""
-        from slam.frontend.observation import MSISGeometry, observe_regions
+    def _polar_done(self, v, s, res, truth_labels, poses_true, kind: str) -> None:
+        """Score a polar front-end result against the simulator's labels (confirmed
+        detections; a detection is a true positive when >= 10 % of its cells carry an
+        object id), record them and queue the keyframed observations."""
+        from slam.frontend.sidescan_windows import Detection
 
+        g = res.groups
+        lab = np.asarray(truth_labels)
+        v.imaged_ids |= set(np.unique(lab[lab > 0]).tolist())
+        bg = lab == 0
+        v.bg_pixels += int(np.count_nonzero(bg))
+        v.det_counts[f"{kind}_regions"] += res.n_regions
+        v.det_counts[f"{kind}_candidates"] += res.n_candidates
+        conf = [d for d in res.detections if d.confirmed]
+        v.det_counts[f"{kind}_confirmed"] += len(conf)
+        if not conf:
+            return
+        ng = int(g.max())
+        top = int(max(lab.max(), 0)) + 1
+        obj = lab > 0
+        pair = np.bincount(g[obj] * top + lab[obj], minlength=(ng + 1) * top).reshape(ng + 1, top)
+        n_cells = np.bincount(g.ravel(), minlength=ng + 1)
+        kept = np.isin(g, [d.group for d in conf])
+        v.fp_pixels += int(np.count_nonzero(kept & bg))
+        obs = []
+        for d in conf:
+            n_obj = int(pair[d.group].sum())
+            oid = int(pair[d.group].argmax()) if n_obj else 0
+            pt = poses_true[min(d.row, len(poses_true) - 1)] if kind == "msis" else poses_true[0]
+            o = d.observation
+            a = pt[2] + o.z[1]
+            wxy = pt[:2] + o.z[0] * np.array([math.cos(a), math.sin(a)])
+            v.detections.append(
+                (
+                    s.spec.name,
+                    Detection(
+                        o.t,
+                        d.row,
+                        kind,
+                        float(o.z[0]),
+                        float(o.z[0]),
+                        d.area_px,
+                        o,
+                        oid,
+                        n_obj >= 0.1 * n_cells[d.group],
+                        wxy,
+                    ),
+                )
+            )
+            if d.emitted:
+                obs.append(o)
+        v.det_counts[f"{kind}_observations"] += len(obs)
+        if v.lagged is not None and obs:
+            by_t: dict[float, list] = defaultdict(list)
+            for o in obs:
+                by_t[o.t].append(o)
+            for t, ob in sorted(by_t.items()):
+                self._add_obs(v, t, ob)
+
+    def _msis_scan(self, v: VehicleRuntime, s: SonarRuntime) -> None:
+        """A completed MSIS scan: one polar image (head angles, bins) through
+        sim.runner.fls_msis; each detection is tied to the ping of its centroid row."""
         t0 = time.perf_counter()
-        fe = v.spec.frontend
-        pings = [p for p, _ in s.msis_pings]
+        pings = [p[0] for p in s.msis_pings]
         img = np.stack([p.intensity for p in pings])
         lab = np.stack([p.labels for p in pings])
-        cfg = s.sonar.config
-        if fe.method != "none":
-            prep = make_fls_prepare(cfg.acoustic.log_compression, cfg.acoustic.dynamic_range_db)
-            labels, regions = _segmenter(fe.method, fe.preset, False)(prep(img))
-            step = np.radians(cfg.step_deg)
-            ranges = cfg.min_range + (np.arange(cfg.n_bins) + 0.5) * cfg.bin_width
-            regs = [
-                r
-                for r in regions
-                if 4 <= r.area_px <= 0.02 * img.size
-                and r.area_px
-                * cfg.bin_width
-                * max(float(ranges[min(round(r.centroid_rc[1]), cfg.n_bins - 1)]), 0.5)
-                * step
-                >= fe.min_area_m2
-            ]
-            if regs:
-                geom = MSISGeometry(
-                    range_max=float(cfg.max_range),
-                    n_bins=cfg.n_bins,
-                    step_deg=cfg.step_deg,
-                    range_min=float(cfg.min_range),
-                    sector_deg=cfg.sector_deg,
-                    sector_center_deg=cfg.sector_center_deg,
-                    beamwidth_deg=cfg.horizontal_beamwidth_deg,
-                )
-                c = np.array([r.centroid_rc for r in regs])
-                e = np.array([(r.bbox[2] - r.bbox[0], r.bbox[3] - r.bbox[1]) for r in regs], float)
-                from slam.frontend.sidescan_windows import Detection
-
-                for o in observe_regions(geom, c, e, on_invalid="skip"):
-                    r = regs[o.meta["index"]]
-                    k = int(np.clip(round(r.centroid_rc[0]), 0, len(pings) - 1))
-                    t = pings[k].time
-                    pose = s.msis_pings[k][1]
-                    m = labels == r.label
-                    objs = lab[m][lab[m] > 0]
-                    oid = int(np.bincount(objs).argmax()) if objs.size else 0
-                    wxy = pose[:2] + o.z[0] * np.array(
-                        [np.cos(pose[2] + o.z[1]), np.sin(pose[2] + o.z[1])]
-                    )
-                    from slam.types import RangeBearing
-
-                    ob = RangeBearing(o.z, o.R, t=t, meta=o.meta)
-                    v.detections.append(
-                        (
-                            s.spec.name,
-                            Detection(
-                                t,
-                                k,
-                                "msis",
-                                float(o.z[0]),
-                                float(o.z[0]),
-                                r.area_px,
-                                ob,
-                                oid,
-                                objs.size >= 0.1 * m.sum(),
-                                wxy,
-                            ),
-                        )
-                    )
-                    if v.lagged is not None:
-                        self._add_obs(v, t, [ob])
-                bg = lab == 0
-                kept = np.isin(labels, [r.label for r in regs])
-                v.fp_pixels += int(np.count_nonzero(kept & bg))
-                v.bg_pixels += int(np.count_nonzero(bg))
-            v.imaged_ids |= set(np.unique(lab[lab > 0]).tolist())
+        if s.polar is not None:
+            res = s.polar.process(
+                img,
+                altitude=v.altitude_nav if np.isfinite(v.altitude_nav) else None,
+                poses_nav=np.array([p[2] for p in s.msis_pings]),
+                times=np.array([p.time for p in pings]),
+            )
+            self._polar_done(v, s, res, lab, np.array([p[1] for p in s.msis_pings]), "msis")
         s.horizon = self.world.time
         self.timer.add("frontend", t0)
         if self.rec is not None:
@@ -818,6 +792,8 @@ class ScenarioRun:
                     dist = np.linalg.norm(wxy - np.asarray(o.position)[:2], axis=1)
                     near[f"{o.class_name}_{o.id}"] = float(dist.min())
                 d["detections"]["nearest_detection_m"] = near
+            if v.det_counts:
+                d["detections"]["pipeline_counts"] = dict(sorted(v.det_counts.items()))
             if v.lagged is not None:
                 hist = v.lagged.history
                 if hist:
