@@ -81,7 +81,9 @@ class PolarFrontendConfig:
     persistence_k of persistence_n frames within persistence_radius_m (world, m);
     keyframe_distance_m / keyframe_angle_deg: vehicle motion between two observations
     of one track (0 = every confirmed detection is an observation); drop_truncated:
-    drop regions touching a truncating image edge.
+    drop regions touching a truncating image edge or reaching within far_margin_m of the
+    maximum range; extent_bias: times the region's length along its major axis, added as
+    a standard deviation along that axis (extended objects, module docstring step 4).
     """
 
     looks: int = 5
@@ -98,6 +100,8 @@ class PolarFrontendConfig:
     keyframe_distance_m: float = 2.0
     keyframe_angle_deg: float = 15.0
     drop_truncated: bool = True
+    far_margin_m: float = 3.0
+    extent_bias: float = 0.0
 
     def __post_init__(self) -> None:
         ints = {
@@ -128,6 +132,8 @@ class PolarFrontendConfig:
             "merge_radius_m": self.merge_radius_m,
             "keyframe_distance_m": self.keyframe_distance_m,
             "keyframe_angle_deg": self.keyframe_angle_deg,
+            "far_margin_m": self.far_margin_m,
+            "extent_bias": self.extent_bias,
         }
         for name, v in nonneg.items():
             if not (np.isfinite(v) and v >= 0):
@@ -440,13 +446,16 @@ class PolarFrontend:
         keep = (area >= c.min_area_px) & (area <= c.max_area_fraction * labels.size)
         keep &= peak >= c.min_peak_db
         keep[0] = False
+        slant, ang = self._grid(labels.shape)
         if c.drop_truncated:
             keep[np.unique(labels[self._edges(labels.shape)])] = False
+            far = np.zeros(n_lab + 1)
+            far[1:] = ndimage.maximum(slant, labels, np.arange(1, n_lab + 1))
+            keep &= far <= self.ranges[-1] + 0.5 * self.bin_width - c.far_margin_m
         ids = np.flatnonzero(keep)
         if ids.size == 0:
             return empty
         # body coordinates of every cell (horizontal range on a flat seabed)
-        slant, ang = self._grid(labels.shape)
         alt = float(altitude) if altitude is not None and np.isfinite(altitude) else 0.0
         horiz = np.sqrt(np.clip(slant**2 - alt**2, 0.0, None))
         bx, by = horiz * np.cos(ang), horiz * np.sin(ang)
@@ -463,6 +472,11 @@ class PolarFrontend:
         rows_of = np.arange(labels.shape[0])[:, None] * np.ones((1, labels.shape[1]))
         row_c = np.bincount(groups.ravel(), rows_of.ravel(), ng + 1)[1:] / cnt
         rc = np.clip(np.round(row_c).astype(int), 0, labels.shape[0] - 1)
+        if c.extent_bias > 0:  # the lit part of an extended object: unknown along its axis
+            lam, vec = np.linalg.eigh(M)
+            length2 = 12.0 * lam[:, 1]  # (length of a uniform bar with this variance)²
+            u = vec[:, :, 1]
+            M = M + (c.extent_bias**2 * length2)[:, None, None] * (u[:, :, None] * u[:, None, :])
         # cell variances in native polar coordinates (uniform over a cell), slant -> horizontal
         rho_c = np.hypot(xy[:, 0], xy[:, 1])
         s_c = np.sqrt(rho_c**2 + alt**2)
