@@ -10,7 +10,10 @@ for a mass–damper–spring plant; Åström & Murray §11.3 for the PI):
   closed loop is then first order with time constant 1/ω_u. ω_u = clip(2 d / M, 0.1, 1)
   (twice the open-loop bandwidth). Feedforward X_ff = d_l u_d + d_q u_d|u_d|.
 * heading, depth (heave), pitch, roll (second order): PID with kp = M ω_n² − k,
-  kd = 2 ζ ω_n M − d, ki = kp ω_n / 10, ζ = 1. ω_n is set by actuator authority:
+  kd = 2 sqrt(kp M) − d (= 2 ζ ω_n M − d, ζ = 1, when k >= 0; for a destabilising
+  Munk stiffness k < 0 it is critically damped at sqrt(kp/M), the frequency the loop
+  has when the sway/heave loops suppress the sideslip the Munk moment needs),
+  ki = kp ω_n / 10. ω_n is set by actuator authority:
   ω_n = sqrt(τ_max / (M e_sat)) — the P term alone just saturates the actuator at an
   error e_sat (0.5 rad heading, 2 m depth, 0.3 rad pitch/roll) — clipped to
   [0.1, 1.0] rad/s (the thrusters' ~0.2 s lag bounds the loop bandwidth).
@@ -315,7 +318,11 @@ def _second_order(
         wn = 0.5
     wn = min(max(wn, 0.1), 1.0)
     kp = max(M * wn * wn - k, 0.05 * M * wn * wn)
-    kd = max(2.0 * wn * M - d, 0.0)
+    # critical damping of the loop WITHOUT the destabilising stiffness (ω = sqrt(kp/M)):
+    # the Munk moment needs a sideslip / incidence that the sway and depth loops keep
+    # small, and when it is absent an underdamped loop (ζ = ω_n / sqrt(kp/M)) limit-cycles
+    # with the thruster lag. With k present the loop is then overdamped (ζ >= 1).
+    kd = max(2.0 * math.sqrt(kp * M) - d, 0.0)
     ki = kp * wn / 10.0 if integral else 0.0
     lim = tau_max if math.isfinite(tau_max) and tau_max > 0 else math.inf
     return PIDGains(kp=kp, ki=ki, kd=kd, u_min=-lim, u_max=lim)

@@ -95,16 +95,21 @@ def test_surge_loop_is_first_order_with_designed_bandwidth():
 
 
 def test_second_order_gains_place_poles_at_designed_frequency():
-    """kp = M ω² − k, kd = 2 ζ ω M − d with ζ = 1: closed-loop characteristic polynomial
-    M s² + (d + kd) s + (k + kp) has a double root at −ω (ignoring the slow integral)."""
+    """kp = M ω² − k, kd = 2 sqrt(kp M) − d: with the destabilising Munk stiffness k < 0
+    the closed loop M s² + (d + kd) s + (k + kp) has the designed ω² as the product of its
+    roots and both roots real and stable (ζ >= 1); without k (sideslip suppressed) the
+    loop M s² + (d + kd) s + kp has a double root at −sqrt(kp / M) (critical damping)."""
     p = make_plant()
     g = design_gains(p)
     M, k = p.inertia[5], p.stiffness[5]
+    assert k < 0
     d = p.linear_damping[5] + 2 * p.quadratic_damping[5] * 0.2
+    w = min(max(math.sqrt(20 / (M * 0.5)), 0.1), 1.0)
     roots = np.roots([M, d + g.heading.kd, k + g.heading.kp])
-    assert np.allclose(roots.real, roots.real[0], rtol=1e-3)
-    w = -roots.real[0]
-    assert w == pytest.approx(min(max(math.sqrt(20 / (M * 0.5)), 0.1), 1.0), rel=1e-3)
+    assert np.all(np.abs(roots.imag) < 1e-9) and np.all(roots.real < 0)
+    assert np.prod(roots).real == pytest.approx(w * w, rel=1e-6)
+    free = np.roots([M, d + g.heading.kd, g.heading.kp])
+    assert np.allclose(free.real, -math.sqrt(g.heading.kp / M), rtol=1e-3)
     assert g.heading.u_max == pytest.approx(20.0)
 
 
