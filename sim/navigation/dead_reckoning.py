@@ -10,7 +10,13 @@ outside the runner, so increments are :class:`OdometryIncrement` with the same f
 Mechanisation: the latest DVL velocity and gyro rate are held until the next sample
 (zero-order hold); when the next sample arrives the span between the two is corrected
 to linear interpolation (trapezoid rule), so only the tail after the last sample of an
-interval is extrapolated. Between events the relative pose integrates
+interval is extrapolated. Gyro samples that are interval means (a delta-angle IMU,
+``IMUConfig.gyro_averaged``, ``gyro_noise_density`` set here) and DVL velocities that
+are means over the ping interval (``DVLConfig.averaged``, ``DVLMeasurement.t_start``)
+instead replace the held value over the span they average — exact for the simulated
+trajectory, where MuJoCo's semi-implicit Euler step moves the pose with the post-step
+velocity, so instantaneous rates at a tick are half a physics step out of step with it
+(~0.1° of heading per turn, ~5 mm per speed change of the alister9 at 10 ms). Between events the relative pose integrates
 
     p <- p + R(phi_mid) T v h,    phi <- phi + c_z (w_z - b) h,
 
@@ -29,18 +35,19 @@ residual bias is small and the heading error is bounded, so increments are close
 independent. Without aiding (``ahrs_yaw_std=None``) the heading is the gyro integral.
 
 Covariance: exact linear propagation of an augmented error state
-``e = [dp (2), dphi, e0, n_v (3), n_w, b_w]`` — the pose error of the interval (dphi the
-error of the heading change), the absolute heading error ``e0`` at the start of the
-interval (only non-zero with aiding: the compass measures absolute heading, so the
-increment's heading error is the difference of two absolute errors), the noise of the
+``e = [dp (2), e_psi, e0, n_v (3), n_w, b_w]`` — the position error of the interval, the
+heading error now ``e_psi`` and a clone ``e0`` of it taken at the start of the interval
+(stochastic cloning: the increment's heading error is ``e_psi − e0``; without aiding
+both start at zero and ``e0`` stays zero, so ``e_psi`` is the heading-change error; with
+aiding the compass measures absolute heading, so both are absolute errors), the noise of the
 *held* DVL sample (constant until the next ping, so it is a state, not white process
 noise), the noise of the held gyro sample, and the residual gyro bias (true minus
 estimate). A new sample replaces its noise state by a fresh independent draw (zero
 cross-covariance, variance = per-sample variance of the configured sensor). The bias
 carries the IMU's turn-on bias variance and its random walk. The compass update is a
-Schmidt ("consider") Kalman update: only the interval pose and the bias are corrected
-(``e0`` must stay fixed — the previous increment has been handed out — and the held
-noise states are not worth estimating), with the Joseph-form covariance, which is exact
+Schmidt ("consider") Kalman update: only the position, the current heading and the bias
+are corrected (the clone ``e0`` must stay fixed — the previous increment has been handed
+out — and the held noise states are not worth estimating), with the Joseph-form covariance, which is exact
 for any gain. Without DVL lock the last velocity is held and its error random-walks with
 ``coast_velocity_std`` (m/s/√s). Not modelled: roll/pitch noise of the levelling (second
 order for a near-level vehicle), x/y gyro noise, DVL scale-factor error, a constant
@@ -76,11 +83,12 @@ _P = slice(0, 2)
 _PHI = 2
 _E0 = 3
 _NV = slice(4, 7)
-_NW = 7
-_B = 8
-_N = 9
+_NW = slice(7, 9)  # held gyro noise, body y and z
+_B = slice(9, 11)  # residual gyro bias, body y and z
+_N = 11
 # states a compass update corrects (the others are "consider" states)
-_UPDATED = np.array([True, True, True, False, False, False, False, False, True])
+_UPDATED = np.zeros(_N, bool)
+_UPDATED[[0, 1, 2, 9, 10]] = True
 
 
 @dataclass(frozen=True)
@@ -116,7 +124,11 @@ class DeadReckoningConfig:
     """Noise figures the dead reckoner assumes (normally taken from the sensor configs).
 
     dvl_velocity_std   : per-ping velocity noise, m/s (DVLConfig.velocity_noise_std).
-    gyro_sample_std    : per-sample gyro noise, rad/s (density · sqrt(rate)).
+    gyro_sample_std    : per-sample gyro noise, rad/s (density · sqrt(rate)); with
+                         ``gyro_noise_density`` only for the first sample.
+    gyro_noise_density : None (point samples) or the gyro's noise density, rad/s/√Hz, when
+                         each gyro sample is the mean rate since the previous one (noise
+                         std density/√Δt; IMUConfig.gyro_averaged).
     gyro_bias_std      : initial gyro-bias std, rad/s (IMUConfig.gyro_bias_init_std).
     gyro_bias_rw       : gyro-bias random walk, rad/s²/√Hz.
     coast_velocity_std : growth of velocity error without DVL lock, m/s/√s.
@@ -135,6 +147,7 @@ class DeadReckoningConfig:
     initial_velocity_std: float = 1.0
     gyro_bias_estimate: float = 0.0
     ahrs_yaw_std: float | None = None
+    gyro_noise_density: float | None = None
 
     def __post_init__(self) -> None:
         for n in (
@@ -152,12 +165,13 @@ class DeadReckoningConfig:
             raise ValueError(
                 f"DeadReckoningConfig.gyro_bias_estimate must be finite, got {self.gyro_bias_estimate!r}"
             )
-        a = self.ahrs_yaw_std
-        if a is not None and not (isinstance(a, int | float) and math.isfinite(a) and a >= 0):
-            raise ValueError(
-                f"DeadReckoningConfig.ahrs_yaw_std must be None (no heading aiding) or a finite "
-                f"number >= 0, got {a!r}"
-            )
+        for n, what in (("ahrs_yaw_std", "no heading aiding"), ("gyro_noise_density", "point")):
+            a = getattr(self, n)
+            if a is not None and not (isinstance(a, int | float) and math.isfinite(a) and a >= 0):
+                raise ValueError(
+                    f"DeadReckoningConfig.{n} must be None ({what}) or a finite number >= 0, "
+                    f"got {a!r}"
+                )
 
     @classmethod
     def from_sensors(
@@ -178,6 +192,7 @@ class DeadReckoningConfig:
             coast_velocity_std=coast_velocity_std,
             initial_velocity_std=initial_velocity_std,
             ahrs_yaw_std=None if ahrs is None else ahrs.yaw_noise_std,
+            gyro_noise_density=imu.gyro_noise_density if imu.gyro_averaged else None,
         )
 
 
@@ -223,14 +238,15 @@ class DeadReckoner:
         )
         if not np.all(np.isfinite(self.v)):
             raise ValueError(f"initial_velocity_body must be finite, got {self.v}")
-        self.w = 0.0  # held gyro z rate
+        self.w = np.zeros(2)  # held gyro rate, body y and z, rad/s
         self.roll = 0.0
         self.pitch = 0.0
         self.coasting = True  # no DVL lock yet
-        self.b_hat = float(config.gyro_bias_estimate)  # z-gyro bias estimate, rad/s
+        # y and z gyro bias estimate, rad/s
+        self.b_hat = np.array([0.0, float(config.gyro_bias_estimate)])
         self.psi0: float | None = None  # absolute heading at the interval start (aided)
         self.P = np.zeros((_N, _N))
-        self.P[_B, _B] = config.gyro_bias_std**2
+        self.P[_B, _B] = np.eye(2) * config.gyro_bias_std**2
         self.P[_NV, _NV] = np.eye(3) * config.initial_velocity_std**2
         self.n_dvl = 0
         self.n_dvl_dropped = 0
@@ -250,23 +266,24 @@ class DeadReckoner:
         cp, sp = math.cos(self.pitch), math.sin(self.pitch)
         # top two rows of Ry(pitch) @ Rx(roll): levelled body velocity
         T = np.array([[cp, sp * sr, sp * cr], [0.0, cr, -sr]])
-        cz = cr / cp
-        rate = cz * (self.w - self.b_hat)
+        cz = np.array([sr, cr]) / cp  # Euler yaw rate from body y and z rates
+        rate = float(cz @ (self.w - self.b_hat))
         phi_mid = self.phi + 0.5 * rate * h
         R = _rot2(phi_mid)
         dp = R @ (T @ self.v) * h
         # error-state transition
         F = np.eye(_N)
         Jdp = np.array([-dp[1], dp[0]])  # d(dp)/d(phi_mid)
-        F[_P, _PHI] = Jdp
+        F[_P, _PHI] = Jdp  # the rotation uses the heading change, error e_psi − e0
+        F[_P, _E0] = -Jdp
         F[_P, _NV] = R @ T * h
-        F[_P, _NW] = Jdp * 0.5 * cz * h
-        F[_P, _B] = Jdp * 0.5 * cz * h
+        F[_P, _NW] = np.outer(Jdp, cz) * 0.5 * h
+        F[_P, _B] = np.outer(Jdp, cz) * 0.5 * h
         F[_PHI, _NW] = cz * h
-        F[_PHI, _B] = cz * h  # the bias adds to the measured z rate like its noise
+        F[_PHI, _B] = cz * h  # the bias adds to the measured rate like its noise
         self.P = F @ self.P @ F.T
         if c.gyro_bias_rw > 0:
-            self.P[_B, _B] += c.gyro_bias_rw**2 * h
+            self.P[_B, _B] += np.eye(2) * c.gyro_bias_rw**2 * h
         if self.coasting and c.coast_velocity_std > 0:
             self.P[_NV, _NV] += np.eye(3) * c.coast_velocity_std**2 * h
         self.p = self.p + dp
@@ -305,10 +322,12 @@ class DeadReckoner:
         self.P = F @ self.P @ F.T
         return dx
 
-    def _levelling(self) -> tuple[np.ndarray, float]:
+    def _levelling(self) -> tuple[np.ndarray, np.ndarray]:
+        """Levelling rows T (2, 3) and the Euler yaw-rate coefficients (2,) of the body
+        y and z rates: yaw rate = (sin(roll) w_y + cos(roll) w_z) / cos(pitch)."""
         cr, sr = math.cos(self.roll), math.sin(self.roll)
         cp, sp = math.cos(self.pitch), math.sin(self.pitch)
-        return np.array([[cp, sp * sr, sp * cr], [0.0, cr, -sr]]), cr / cp
+        return np.array([[cp, sp * sr, sp * cr], [0.0, cr, -sr]]), np.array([sr, cr]) / cp
 
     def add(self, m: IMUMeasurement | DVLMeasurement | AHRSMeasurement) -> None:
         """Take one measurement (must not be older than the last one).
@@ -321,11 +340,21 @@ class DeadReckoner:
         self._propagate(m.t)
         c = self.config
         if isinstance(m, IMUMeasurement):
-            w_new = float(m.gyro[2])
-            wt = self._trapezoid(self._t_w, m.t)
+            w_new = np.asarray(m.gyro, float)[1:3].copy()
             T, cz = self._levelling()
+            if c.gyro_noise_density is not None and self._t_w is not None and m.t > self._t_w:
+                # interval mean over [t_w, t]: replace the held rate on the part of the
+                # span inside this interval; noise of a mean of white noise over the span
+                wt = m.t - max(self._t_w, self.t_start)
+                var = c.gyro_noise_density**2 / (m.t - self._t_w)
+                self.phi += float(cz @ (w_new - self.w)) * wt
+                self._correct(_PHI, _NW, cz * wt, _NW, var, None)
+                self.w = w_new
+                self._t_w = m.t
+                return
+            wt = self._trapezoid(self._t_w, m.t)
             if wt > 0:
-                self.phi += cz * (w_new - self.w) * wt
+                self.phi += float(cz @ (w_new - self.w)) * wt
                 self._correct(_PHI, _NW, cz * wt, _NW, c.gyro_sample_std**2, None)
             else:
                 self._fresh_noise(_NW, c.gyro_sample_std**2)
@@ -335,11 +364,25 @@ class DeadReckoner:
             self.n_dvl += 1
             if m.valid and m.velocity_body is not None:
                 v_new = np.asarray(m.velocity_body, float).copy()
-                wt = self._trapezoid(None if self.coasting else self._t_v, m.t)
+                T, cz = self._levelling()
+                if m.t_start is not None and m.t > max(m.t_start, self.t_start):
+                    # mean velocity over [t_start, t]: replace the held one on the part of
+                    # that window inside this interval (rotated at the window's middle)
+                    wt = m.t - max(m.t_start, self.t_start)
+                    R = _rot2(self.phi - 0.5 * float(cz @ (self.w - self.b_hat)) * wt)
+                    G = R @ T * wt
+                    self.p = self.p + G @ (v_new - self.v)
+                    self._correct(_P, _NV, G, _NV, c.dvl_velocity_std**2, None)
+                    self.v = v_new
+                    self._t_v = m.t
+                    self.coasting = False
+                    return
+                # after a dropout too: interpolate over the gap since the last valid ping
+                wt = self._trapezoid(self._t_v, m.t)
                 if wt > 0:
                     T, cz = self._levelling()
                     span = m.t - max(self._t_v, self.t_start)
-                    R = _rot2(self.phi - 0.5 * cz * (self.w - self.b_hat) * span)
+                    R = _rot2(self.phi - 0.5 * float(cz @ (self.w - self.b_hat)) * span)
                     G = R @ T * wt
                     self.p = self.p + G @ (v_new - self.v)
                     self._correct(_P, _NV, G, _NV, c.dvl_velocity_std**2, None)
@@ -368,27 +411,30 @@ class DeadReckoner:
 
     @property
     def gyro_bias(self) -> float:
-        return self.b_hat
+        return float(self.b_hat[1])
 
     def _heading_update(self, yaw: float, var: float) -> None:
         """Fuse an absolute yaw measurement ``yaw`` (rad) of variance ``var`` (rad²).
 
         The first one initialises the absolute heading (its error is the measurement
-        noise: ``e0 := v − dphi`` so that ``e0 + dphi = v``). Later ones are a scalar
-        Schmidt-Kalman update with innovation ``wrap(yaw − psi0 − phi) = −(e0 + dphi) + v``.
+        noise ``v``: ``e_psi := v`` and, the heading change being unchanged,
+        ``e0 := v − (e_psi − e0)``). Later ones are a scalar Schmidt-Kalman update with
+        innovation ``wrap(yaw − psi0 − phi) = −e_psi + v``.
         """
         if not math.isfinite(yaw):
             raise ValueError(f"AHRS yaw must be finite, got {yaw!r}")
         if self.psi0 is None:
             self.psi0 = _wrap(yaw - self.phi)
             A = np.eye(_N)
-            A[_E0, :] = 0.0
+            A[_PHI, :] = 0.0
             A[_E0, _PHI] = -1.0
             self.P = A @ self.P @ A.T
-            self.P[_E0, _E0] += var
+            g = np.zeros(_N)
+            g[_PHI] = g[_E0] = 1.0
+            self.P += var * np.outer(g, g)
             return
         h = np.zeros(_N)
-        h[_PHI] = h[_E0] = -1.0
+        h[_PHI] = -1.0
         y = _wrap(yaw - self.psi0 - self.phi)
         Ph = self.P @ h
         S = float(h @ Ph) + var
@@ -403,13 +449,20 @@ class DeadReckoner:
         self.P = A @ self.P @ A.T + np.outer(K, K) * var
 
     def add_all(self, measurements) -> None:
-        for m in sorted(measurements, key=lambda m: m.t):
+        """Add measurements in time order; at equal times the AHRS comes last, so the
+        compass is compared with a heading whose last span is already interpolated from
+        the gyro sample of that time, not extrapolated (a lag that biases the update in
+        turns)."""
+        for m in sorted(measurements, key=lambda m: (m.t, isinstance(m, AHRSMeasurement))):
             self.add(m)
 
     def increment(self, t: float) -> OdometryIncrement:
         """Integrate to ``t`` and return ``[dx, dy, dphi]`` since the last cut, with cov."""
         self._propagate(float(t))
-        cov = self.P[:3, :3].copy()
+        M = np.zeros((3, _N))
+        M[0, 0] = M[1, 1] = M[2, _PHI] = 1.0
+        M[2, _E0] = -1.0  # heading-change error e_psi − e0
+        cov = M @ self.P @ M.T
         cov = 0.5 * (cov + cov.T)
         inc = OdometryIncrement(
             delta=np.array([self.p[0], self.p[1], _wrap(self.phi)]),
@@ -417,11 +470,16 @@ class DeadReckoner:
             t=self.t,
             t_start=self.t_start,
         )
-        # new interval: pose error restarts at zero, the absolute heading error at the new
-        # start is e0 + dphi; held-noise and bias states carry over
+        # new interval: position error restarts at zero; with an absolute heading the
+        # clone e0 takes the current heading error, without one the heading-change error
+        # restarts at zero; held-noise and bias states carry over
         A = np.eye(_N)
-        A[:3, :] = 0.0
-        A[_E0, _PHI] = 1.0
+        A[_P, :] = 0.0
+        if self.psi0 is not None:
+            A[_E0, :] = 0.0
+            A[_E0, _PHI] = 1.0
+        else:
+            A[_PHI, :] = 0.0
         self.P = A @ self.P @ A.T
         if self.psi0 is not None:
             self.psi0 = _wrap(self.psi0 + self.phi)

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from typing import ClassVar, Generic, TypeVar
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from sim.state import VehicleState
 
@@ -106,6 +107,13 @@ class IMUConfig:
     accel_bias_rw           : accelerometer bias random walk, m/s³/√Hz.
     accel_bias_init_std     : std of the turn-on accelerometer bias, m/s².
     gravity                 : magnitude of gravity in the specific force, m/s².
+    gyro_averaged           : True (default): each gyro sample is the mean body rate over
+                              the interval since the previous sample — a strapdown IMU's
+                              delta-angle output (integrated internally at its raw rate) —
+                              taken from the true orientation change, with white noise of
+                              std ``density / sqrt(Δt)`` (white noise of density N averaged
+                              over Δt). The first sample, and False, give the instantaneous
+                              rate with std ``density * sqrt(rate_hz)``.
     """
 
     rate_hz: float = 100.0
@@ -117,6 +125,7 @@ class IMUConfig:
     accel_bias_rw: float = 1.0e-4
     accel_bias_init_std: float = 0.02
     gravity: float = GRAVITY
+    gyro_averaged: bool = True
 
     PRESETS: ClassVar[dict[str, dict]] = {
         # Consumer MEMS (BMI088 / MPU-class datasheet figures): gyro 0.014 °/s/√Hz,
@@ -155,6 +164,10 @@ class IMUConfig:
             "accel_bias_rw",
             "accel_bias_init_std",
         )
+        if not isinstance(self.gyro_averaged, bool):
+            raise ValueError(
+                f"IMUConfig.gyro_averaged must be True or False, got {self.gyro_averaged!r}"
+            )
 
     @classmethod
     def preset(cls, name: str, **overrides) -> IMUConfig:
@@ -172,6 +185,11 @@ class DVLConfig:
     max_altitude     : no bottom lock above this altitude, m.
     min_altitude     : no bottom lock below this altitude (blanking distance), m.
     dropout_prob     : probability that a ping inside the lock window still loses lock.
+    averaged         : True (default): each ping reports the mean body velocity over the
+                       time since the previous ping (position change over that time,
+                       rotated by the mid-span attitude), consistent with the simulated
+                       trajectory whatever the integrator; False: the instantaneous
+                       velocity of the state. The first ping is always instantaneous.
     """
 
     rate_hz: float = 5.0
@@ -180,6 +198,7 @@ class DVLConfig:
     max_altitude: float = 90.0
     min_altitude: float = 0.5
     dropout_prob: float = 0.01
+    averaged: bool = True
 
     PRESETS: ClassVar[dict[str, dict]] = {
         # Typical 600 kHz bottom-tracking DVL (Teledyne RDI Workhorse/Pathfinder 600 class):
@@ -206,6 +225,8 @@ class DVLConfig:
         _check_positive(self, "rate_hz", "max_altitude")
         _check_nonneg(self, "delay_s", "velocity_noise_std", "min_altitude")
         _check_probability(self, "dropout_prob")
+        if not isinstance(self.averaged, bool):
+            raise ValueError(f"DVLConfig.averaged must be True or False, got {self.averaged!r}")
         if self.min_altitude >= self.max_altitude:
             raise ValueError(
                 f"DVLConfig.min_altitude must be < max_altitude ({self.max_altitude}), "
@@ -326,12 +347,15 @@ class IMUMeasurement:
 @dataclass(frozen=True)
 class DVLMeasurement:
     """t: acquisition time, s. ``velocity_body`` (3,) m/s over ground, body frame, or None
-    without bottom lock (``valid`` False). ``altitude`` is the true altitude at the ping."""
+    without bottom lock (``valid`` False). ``altitude`` is the true altitude at the ping.
+    ``t_start``: start of the averaging window of an averaged velocity (the previous
+    ping), s; None for an instantaneous sample."""
 
     t: float
     velocity_body: np.ndarray | None
     valid: bool
     altitude: float
+    t_start: float | None = None
 
 
 @dataclass(frozen=True)
@@ -421,12 +445,19 @@ class IMU(NavSensor[IMUConfig, IMUMeasurement]):
     gyro  = omega_body + b_g + n_g,          n_g ~ N(0, (N_g² rate) I)
     f     = a_body - R_bwᵀ g_world + b_a + n_a, g_world = (0, 0, -g)
     b(k+1) = b(k) + N(0, B² Δt I) between samples.
+
+    With ``gyro_averaged`` (default) ``omega_body`` is the mean rate over the Δt since the
+    previous sample, ``log(R_prevᵀ R) / Δt``, and n_g ~ N(0, N_g²/Δt I): consistent with
+    the simulated orientation whatever the integrator (MuJoCo's semi-implicit Euler moves
+    the orientation with the post-step velocity, so the instantaneous rate at a tick is
+    half a physics step out of step with the pose — ~0.1° per turn for the alister9).
     """
 
     def __init__(self, config: IMUConfig, rng: np.random.Generator) -> None:
         super().__init__(config, rng)
         self.gyro_bias = rng.normal(0.0, config.gyro_bias_init_std, 3)
         self.accel_bias = rng.normal(0.0, config.accel_bias_init_std, 3)
+        self._R_prev: np.ndarray | None = None
 
     def _sample(self, state: VehicleState) -> IMUMeasurement:
         c = self.config
@@ -441,11 +472,14 @@ class IMU(NavSensor[IMUConfig, IMUMeasurement]):
         sq = math.sqrt(c.rate_hz)
         R = state.rotation
         g_body = R.T @ np.array([0.0, 0.0, c.gravity])  # -(R^T g_world) with g_world = -g ez
-        gyro = (
-            np.asarray(state.angular_velocity_body, float)
-            + self.gyro_bias
-            + self.rng.normal(0.0, c.gyro_noise_density * sq, 3)
-        )
+        if c.gyro_averaged and dt > 0 and self._R_prev is not None:
+            omega = Rotation.from_matrix(self._R_prev.T @ R).as_rotvec() / dt
+            sg = c.gyro_noise_density / math.sqrt(dt)
+        else:
+            omega = np.asarray(state.angular_velocity_body, float)
+            sg = c.gyro_noise_density * sq
+        self._R_prev = R
+        gyro = omega + self.gyro_bias + self.rng.normal(0.0, sg, 3)
         f = (
             np.asarray(state.acceleration_body, float)
             + g_body
@@ -458,7 +492,12 @@ class IMU(NavSensor[IMUConfig, IMUMeasurement]):
 class DVL(NavSensor[DVLConfig, DVLMeasurement]):
     """Bottom-track velocity over ground in the body frame; lock only for
     ``min_altitude <= altitude <= max_altitude`` (unknown altitude → no lock), and each
-    ping inside the window drops out with ``dropout_prob``."""
+    ping inside the window drops out with ``dropout_prob``. With ``averaged`` the
+    velocity is the mean over the time since the previous ping (see DVLConfig)."""
+
+    def __init__(self, config: DVLConfig, rng: np.random.Generator) -> None:
+        super().__init__(config, rng)
+        self._prev: tuple[float, np.ndarray, np.ndarray] | None = None
 
     def _sample(self, state: VehicleState) -> DVLMeasurement:
         c = self.config
@@ -469,8 +508,19 @@ class DVL(NavSensor[DVLConfig, DVLMeasurement]):
         lock = (
             math.isfinite(alt) and c.min_altitude <= alt <= c.max_altitude and u >= c.dropout_prob
         )
-        v = np.asarray(state.velocity_body, float) + noise if lock else None
-        return DVLMeasurement(t=float(state.t), velocity_body=v, valid=lock, altitude=alt)
+        t = float(state.t)
+        R = state.rotation
+        p = np.asarray(state.position, float)
+        t_start = None
+        v_true = np.asarray(state.velocity_body, float)
+        if c.averaged and self._prev is not None and t > self._prev[0]:
+            t0, p0, R0 = self._prev
+            half = Rotation.from_rotvec(0.5 * Rotation.from_matrix(R0.T @ R).as_rotvec())
+            v_true = (R0 @ half.as_matrix()).T @ ((p - p0) / (t - t0))
+            t_start = t0
+        self._prev = (t, p.copy(), R)
+        v = v_true + noise if lock else None
+        return DVLMeasurement(t=t, velocity_body=v, valid=lock, altitude=alt, t_start=t_start)
 
 
 class DepthSensor(NavSensor[DepthConfig, DepthMeasurement]):
