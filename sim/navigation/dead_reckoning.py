@@ -16,13 +16,15 @@ are means over the ping interval (``DVLConfig.averaged``, ``DVLMeasurement.t_sta
 instead replace the held value over the span they average — exact for the simulated
 trajectory, where MuJoCo's semi-implicit Euler step moves the pose with the post-step
 velocity, so instantaneous rates at a tick are half a physics step out of step with it
-(~0.1° of heading per turn, ~5 mm per speed change of the alister9 at 10 ms). Between events the relative pose integrates
+(~0.1° of heading per turn, ~5 mm per speed change of the alister9 at 10 ms). Between
+events the relative pose integrates
 
-    p <- p + R(phi_mid) T v h,    phi <- phi + c_z (w_z - b) h,
+    p <- p + R(phi_mid) T v h,    phi <- phi + c · (w_yz - b) h,
 
 with ``T`` the top two rows of ``Ry(pitch) Rx(roll)`` (levels the DVL velocity with the
-AHRS attitude), ``c_z = cos(roll)/cos(pitch)`` (yaw-rate from body z rate), ``phi_mid``
-the heading at the middle of the chunk and ``b`` a gyro-bias estimate (0 by default).
+AHRS attitude), ``c = (sin(roll), cos(roll)) / cos(pitch)`` (Euler yaw rate from the body
+y and z rates), ``phi_mid`` the heading at the middle of the chunk and ``b`` the y/z
+gyro-bias estimate (0 at start, estimated with heading aiding).
 
 Heading aiding (``ahrs_yaw_std`` set, the default of :meth:`DeadReckoningConfig.from_sensors`
 when an AHRS config is given): the AHRS/compass yaw is fused into the heading with a
@@ -35,23 +37,28 @@ residual bias is small and the heading error is bounded, so increments are close
 independent. Without aiding (``ahrs_yaw_std=None``) the heading is the gyro integral.
 
 Covariance: exact linear propagation of an augmented error state
-``e = [dp (2), e_psi, e0, n_v (3), n_w, b_w]`` — the position error of the interval, the
+``e = [dp (2), e_psi, e0, n_v (3), n_w (2), b_w (2)]`` — the position error of the interval, the
 heading error now ``e_psi`` and a clone ``e0`` of it taken at the start of the interval
 (stochastic cloning: the increment's heading error is ``e_psi − e0``; without aiding
 both start at zero and ``e0`` stays zero, so ``e_psi`` is the heading-change error; with
 aiding the compass measures absolute heading, so both are absolute errors), the noise of the
 *held* DVL sample (constant until the next ping, so it is a state, not white process
-noise), the noise of the held gyro sample, and the residual gyro bias (true minus
-estimate). A new sample replaces its noise state by a fresh independent draw (zero
+noise), the noise of the held y/z gyro sample, and the residual y/z gyro bias (true
+minus estimate). A new sample replaces its noise state by a fresh independent draw (zero
 cross-covariance, variance = per-sample variance of the configured sensor). The bias
 carries the IMU's turn-on bias variance and its random walk. The compass update is a
 Schmidt ("consider") Kalman update: only the position, the current heading and the bias
 are corrected (the clone ``e0`` must stay fixed — the previous increment has been handed
-out — and the held noise states are not worth estimating), with the Joseph-form covariance, which is exact
-for any gain. Without DVL lock the last velocity is held and its error random-walks with
-``coast_velocity_std`` (m/s/√s). Not modelled: roll/pitch noise of the levelling (second
-order for a near-level vehicle), x/y gyro noise, DVL scale-factor error, a constant
-compass offset (``AHRSConfig.yaw_bias`` — it cancels in heading differences).
+out — and the held noise states are not worth estimating), with the Joseph-form
+covariance, which is exact for any gain. Without DVL lock the last velocity is held and
+its error random-walks with ``coast_velocity_std`` (m/s/√s). Not modelled: roll/pitch
+noise of the levelling (second order for a near-level vehicle), the x gyro (it does not
+enter the yaw rate), DVL scale-factor error, a constant compass offset
+(``AHRSConfig.yaw_bias`` — it cancels in heading differences), extrapolation error of
+the held samples inside an increment that ends between two samples (it matters only for
+increments much shorter than the DVL ping interval: sub-millimetre errors, against a
+sub-millimetre σ). After a DVL dropout the gap back to the last valid ping is
+interpolated when lock returns.
 The filter is written here because it is a small custom error-state model; the
 linearisation mirrors the AEKF predict Jacobians.
 
@@ -407,10 +414,12 @@ class DeadReckoner:
 
     @property
     def heading(self) -> float | None:
+        """Absolute heading estimate, rad (CCW from east), None before the first compass."""
         return None if self.psi0 is None else _wrap(self.psi0 + self.phi)
 
     @property
     def gyro_bias(self) -> float:
+        """Current z-gyro bias estimate, rad/s."""
         return float(self.b_hat[1])
 
     def _heading_update(self, yaw: float, var: float) -> None:
