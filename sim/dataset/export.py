@@ -27,19 +27,17 @@ file system; local workers write their own files.
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
 import sys
 import tempfile
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from sim.dataset.config import DatasetConfig, ShardJob, plan_shards
+from sim.parallel import ray_session, run_local_pool
 
 # ----------------------------------------------------------------------- files ----------
 
@@ -359,52 +357,25 @@ def build_dataset(
 
 
 def _run_local(todo, out: Path, workers: int, max_retries: int, collect, on_retry) -> None:
-    ctx = multiprocessing.get_context("spawn")  # MuJoCo/OpenMP threads are not fork-safe
-    attempts = {j.index: 0 for j in todo}
-    pending = list(todo)
-    while pending:
-        lost = []
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = {pool.submit(run_shard, job, str(out)): job for job in pending}
-            remaining = set(futures)
-            while remaining:
-                done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    job = futures[fut]
-                    try:
-                        collect(fut.result())
-                    except BrokenProcessPool:
-                        # a worker died (killed, OOM): finished shards are on disk
-                        if shard_path(out, job.index).exists():
-                            collect({"shard": job.index, "frames": job.n_frames})
-                        else:
-                            lost.append(job)
-        pending = []
-        for job in lost:
-            attempts[job.index] += 1
-            if attempts[job.index] > max_retries:
-                raise RuntimeError(
-                    f"shard {job.index} (frames {job.first_frame + 1}..{job.first_frame + job.n_frames}, "
-                    f"seed {job.seed}): worker process died {attempts[job.index]} times"
-                )
-            on_retry(job.index)
-            pending.append(job)
+    def finished(job) -> dict | None:
+        # a worker died (killed, OOM): its finished shards are on disk
+        return {"shard": job.index, "frames": job.n_frames} if shard_path(out, job.index).exists() else None
+
+    def give_up(job, attempts: int) -> None:
+        raise RuntimeError(
+            f"shard {job.index} (frames {job.first_frame + 1}..{job.first_frame + job.n_frames}, "
+            f"seed {job.seed}): worker process died {attempts} times"
+        )
+
+    run_local_pool(
+        run_shard, todo, lambda job: (job, str(out)), workers, max_retries,
+        key=lambda job: job.index, collect=collect, finished=finished, give_up=give_up,
+        on_retry=lambda job: on_retry(job.index),
+    )
 
 
 def _run_ray(todo, out: Path, workers: int, address: str | None, collect) -> None:
-    try:
-        import ray
-    except ImportError as exc:  # optional extra
-        raise RuntimeError(
-            "Ray is not installed: pip install 'undersea[cluster]' to export on Ray"
-        ) from exc
-    started_here = not ray.is_initialized()
-    if started_here:
-        if address:
-            ray.init(address=address, log_to_driver=False)
-        else:
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-    try:
+    with ray_session(workers, address, "export") as ray:
         # workers hand back their files (no shared file system needed); the driver writes
         # them, the shard record last, as each shard arrives
         remote = ray.remote(max_retries=2, num_cpus=1)(run_shard)
@@ -416,9 +387,6 @@ def _run_ray(todo, out: Path, workers: int, address: str | None, collect) -> Non
                 for rel, data in r.pop("files").items():  # insertion order: record last
                     atomic_write(out / rel, data)
                 collect(r)
-    finally:
-        if started_here:
-            ray.shutdown()
 
 
 # ----------------------------------------------------------------------- merge ----------

@@ -12,17 +12,15 @@ next invocation. A run whose worker process dies is resubmitted on a fresh pool 
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
 import sys
 import tempfile
 import time
 import traceback
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from sim.parallel import ray_session, run_local_pool
 from sim.sweep.plan import RunSpec, SweepPlan
 
 
@@ -157,60 +155,36 @@ def run_sweep(
     return result
 
 
+def _failure_record(target: str, spec: RunSpec, error: str) -> dict:
+    return {
+        "run_id": spec.run_id,
+        "variant_id": spec.variant_id,
+        "variant": dict(spec.variant),
+        "seed": spec.seed,
+        "target": target,
+        "status": "failed",
+        "error": error,
+    }
+
+
 def _run_local(target, todo, out: Path, workers: int, max_retries: int, collect) -> None:
-    ctx = multiprocessing.get_context("spawn")  # no fork: MuJoCo/OpenMP threads are not fork-safe
-    attempts = {spec.run_id: 0 for spec in todo}
-    pending = list(todo)
-    while pending:
-        lost: list[RunSpec] = []
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = {pool.submit(execute_run, target, spec, str(out)): spec for spec in pending}
-            remaining = set(futures)
-            while remaining:
-                done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    spec = futures[fut]
-                    try:
-                        collect(fut.result())
-                    except BrokenProcessPool:
-                        # the worker died (killed, OOM); its finished siblings are on disk
-                        if (out / "runs" / f"{spec.run_id}.json").exists():
-                            collect(json.loads((out / "runs" / f"{spec.run_id}.json").read_text()))
-                        else:
-                            lost.append(spec)
-        pending = []
-        for spec in lost:
-            attempts[spec.run_id] += 1
-            if attempts[spec.run_id] > max_retries:
-                record = {
-                    "run_id": spec.run_id,
-                    "variant_id": spec.variant_id,
-                    "variant": dict(spec.variant),
-                    "seed": spec.seed,
-                    "target": target,
-                    "status": "failed",
-                    "error": f"worker process died {attempts[spec.run_id]} times",
-                }
-                _atomic_write_json(out / "failed" / f"{spec.run_id}.json", record)
-                collect(record)
-            else:
-                pending.append(spec)
+    def finished(spec: RunSpec) -> dict | None:
+        path = out / "runs" / f"{spec.run_id}.json"
+        return json.loads(path.read_text()) if path.exists() else None
+
+    def give_up(spec: RunSpec, attempts: int) -> None:
+        record = _failure_record(target, spec, f"worker process died {attempts} times")
+        _atomic_write_json(out / "failed" / f"{spec.run_id}.json", record)
+        collect(record)
+
+    run_local_pool(
+        execute_run, todo, lambda spec: (target, spec, str(out)), workers, max_retries,
+        key=lambda spec: spec.run_id, collect=collect, finished=finished, give_up=give_up,
+    )
 
 
 def _run_ray(target, todo, out: Path, workers: int, address: str | None, collect) -> None:
-    try:
-        import ray
-    except ImportError as exc:  # optional extra
-        raise RuntimeError(
-            "Ray is not installed: pip install 'undersea[cluster]' to sweep on Ray"
-        ) from exc
-    started_here = not ray.is_initialized()
-    if started_here:
-        if address:
-            ray.init(address=address, log_to_driver=False)
-        else:
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-    try:
+    with ray_session(workers, address, "sweep") as ray:
         remote = ray.remote(max_retries=2, num_cpus=1)(execute_run)
         refs = [remote.remote(target, spec, str(out)) for spec in todo]
         specs = dict(zip(refs, todo))
@@ -219,19 +193,7 @@ def _run_ray(target, todo, out: Path, workers: int, address: str | None, collect
             for ref in done:
                 try:
                     collect(ray.get(ref))
-                except Exception as exc:  # worker crash after retries
-                    spec = specs[ref]
-                    record = {
-                        "run_id": spec.run_id,
-                        "variant_id": spec.variant_id,
-                        "variant": dict(spec.variant),
-                        "seed": spec.seed,
-                        "target": target,
-                        "status": "failed",
-                        "error": f"{type(exc).__name__}: {exc}",
-                    }
-                    _atomic_write_json(out / "failed" / f"{spec.run_id}.json", record)
+                except Exception as exc:  # worker crash after Ray's retries
+                    record = _failure_record(target, specs[ref], f"{type(exc).__name__}: {exc}")
+                    _atomic_write_json(out / "failed" / f"{specs[ref].run_id}.json", record)
                     collect(record)
-    finally:
-        if started_here:
-            ray.shutdown()
