@@ -157,6 +157,32 @@ def test_fls_sequence_over_a_known_object_gives_observations_near_it_and_none_on
     assert n_conf == 0
 
 
+def test_extended_object_covariance_covers_its_length_across_and_behind(rng):
+    """A 40-beam x 4-bin patch at 20 m is a ~9.8 m arc across the line of sight. By the
+    config's definition its across-range sigma must be at least extent_bias x that length
+    (the lit part's centroid vs the object's centre) and its range sigma at least
+    shadow_bias x the length (its hidden far side). A compact 6 x 4 patch (0.7 m x 1 m)
+    grows to ~10 x 12 cells through blur and dilation: region variance <= (2.5 m)² / 12
+    plus (extent_bias x 1 m)² keeps it under 1.5 m."""
+    cfg = FLS_FRONTEND
+    length = 20.0 * 40 * FOV / N_BEAMS
+    res = _frontend().process(
+        _frame(rng, (20.0, 0.0), size=(4, 40)), altitude=None, poses_nav=np.zeros(3), times=0.0
+    )
+    big = max(res.detections, key=lambda d: d.area_px)
+    r, _ = big.observation.z
+    sd_r, sd_b = np.sqrt(np.diag(big.observation.R))
+    assert r * sd_b >= 0.9 * cfg.extent_bias * length
+    assert sd_r >= 0.9 * cfg.shadow_bias * length
+    res = _frontend().process(
+        _frame(rng, (20.0, 0.0)), altitude=None, poses_nav=np.zeros(3), times=0.0
+    )
+    small = max(res.detections, key=lambda d: d.area_px)
+    r, _ = small.observation.z
+    sd_r, sd_b = np.sqrt(np.diag(small.observation.R))
+    assert max(sd_r, r * sd_b) < 1.5
+
+
 # ---------------------------------------------------------------- CI-sized scenario run ---
 
 
