@@ -137,8 +137,15 @@ def test_mission_flown_to_completion_with_bounded_cross_track(world_kind, missio
 @pytest.mark.slow
 @pytest.mark.parametrize("mission_type", ["loop", "lawnmower"])
 def test_long_missions_flown_to_completion(world_kind, mission_type):
-    """Larger variant (2 laps, 5 tracks, 2x longer legs): same bounds."""
-    world, kind = world_kind
+    """Larger variant (2 laps, 5 tracks, 2x longer legs): same bounds. Flown over a
+    400 m seabed (IXN's 10 m lookahead makes its long missions ~110 m wide)."""
+    _, kind = world_kind
+    world = build_world(
+        WorldSpec(
+            seabed=SeabedSpec(kind="flat", size_xy=(400.0, 400.0), depth=20.0),
+            vehicles=(VehicleSpec(kind, position=(0.0, 0.0, -5.0)),),
+        )
+    )
     g = gains_for(world, kind)
     m = make_mission(mission_type, g.cruise_speed, g.lookahead, scale=2.0, R=g.turn_radius)
     ap, settled, anywhere, depth_err, t_max = fly(world, kind, m)
