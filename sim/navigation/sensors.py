@@ -128,8 +128,12 @@ class IMUConfig:
     gyro_averaged: bool = True
 
     PRESETS: ClassVar[dict[str, dict]] = {
-        # Consumer MEMS (BMI088 / MPU-class datasheet figures): gyro 0.014 °/s/√Hz,
-        # accel 175 µg/√Hz, turn-on bias ~0.3 °/s and 20 mg.
+        # Consumer MEMS (BMI088 / MPU-class datasheet figures): gyro 0.014 °/s/√Hz
+        # (ARW 0.84 °/√h), accel 175 µg/√Hz, uncalibrated turn-on bias ~0.3 °/s (zero-rate
+        # offset spec ±1 °/s) and 20 mg; rate random walk 1e-5 rad/s/√s (≈124 °/h/√h:
+        # the bias wanders ~15-20 °/h over a few minutes, the consumer bias-instability
+        # range). A gyro-only heading drifts ~20° a minute with the turn-on bias: the
+        # dead reckoner fuses the AHRS yaw and estimates the bias (NavSuiteConfig).
         "consumer": dict(
             rate_hz=100.0,
             gyro_noise_density=2.4e-4,
@@ -185,11 +189,17 @@ class DVLConfig:
     max_altitude     : no bottom lock above this altitude, m.
     min_altitude     : no bottom lock below this altitude (blanking distance), m.
     dropout_prob     : probability that a ping inside the lock window still loses lock.
-    averaged         : True (default): each ping reports the mean body velocity over the
-                       time since the previous ping (position change over that time,
-                       rotated by the mid-span attitude), consistent with the simulated
-                       trajectory whatever the integrator; False: the instantaneous
-                       velocity of the state. The first ping is always instantaneous.
+    averaged         : False (default): the instantaneous velocity of the state. True:
+                       each ping reports the mean body velocity over the time since the
+                       previous ping (position change over that time, rotated by the
+                       mid-span attitude), consistent with the simulated trajectory
+                       whatever the integrator (MuJoCo's semi-implicit step leaves the
+                       instantaneous velocity half a physics step out of step with the
+                       pose: mm per speed change). Not the default: a dead reckoner cut
+                       much faster than the ping rate extrapolates the held mean, which
+                       lags by an extra half ping interval under acceleration (~0.25 m
+                       instead of ~0.12 m over the alister9's launch in the runner).
+                       The first ping is always instantaneous.
     """
 
     rate_hz: float = 5.0
@@ -198,7 +208,7 @@ class DVLConfig:
     max_altitude: float = 90.0
     min_altitude: float = 0.5
     dropout_prob: float = 0.01
-    averaged: bool = True
+    averaged: bool = False
 
     PRESETS: ClassVar[dict[str, dict]] = {
         # Typical 600 kHz bottom-tracking DVL (Teledyne RDI Workhorse/Pathfinder 600 class):

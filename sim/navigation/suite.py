@@ -29,15 +29,21 @@ from sim.state import VehicleState
 
 __all__ = ["NavReadings", "NavSuite", "NavSuiteConfig"]
 
+AUTO_AIDING_HORIZON_S = 60.0  # heading_aiding=None: aid if the turn-on bias beats the AHRS in this
+
 
 @dataclass(frozen=True)
 class NavSuiteConfig:
     """Sensor configs of one vehicle (defaults: consumer IMU, 600 kHz DVL, Keller-class
     depth, MEMS AHRS, standalone GPS) and the dead reckoner's coast noise, m/s/√s, and
-    prior std of the initial velocity, m/s. ``heading_aiding``: the dead reckoner fuses
-    the AHRS yaw into its gyro heading and estimates the gyro bias (default True, as a
-    vehicle's navigation does; False = gyro-only heading, which with the consumer IMU's
-    turn-on bias drifts ~20° a minute)."""
+    prior std of the initial velocity, m/s. ``heading_aiding``: True = the dead reckoner
+    fuses the AHRS yaw into its gyro heading and estimates the gyro bias, as a vehicle's
+    navigation does; False = gyro-only heading; None (default) = aid when the gyro's
+    turn-on bias alone would take a gyro-only heading past the AHRS yaw accuracy within
+    a minute (``gyro_bias_init_std * 60 s > yaw_noise_std``): the consumer MEMS IMU
+    (~20° a minute) is aided, the tactical FOG (0.003° a minute) is not — fusing a 1°
+    compass into it would only trade its sub-millidegree relative heading for the
+    compass's absolute error."""
 
     imu: IMUConfig = field(default_factory=lambda: IMUConfig.preset("consumer"))
     dvl: DVLConfig = field(default_factory=lambda: DVLConfig.preset("rdi600"))
@@ -46,7 +52,21 @@ class NavSuiteConfig:
     gps: GPSConfig = field(default_factory=lambda: GPSConfig.preset("standalone"))
     coast_velocity_std: float = 0.05
     initial_velocity_std: float = 1.0
-    heading_aiding: bool = True
+    heading_aiding: bool | None = None
+
+    def __post_init__(self) -> None:
+        if self.heading_aiding not in (None, True, False):
+            raise ValueError(
+                "NavSuiteConfig.heading_aiding must be None (auto), True or False, "
+                f"got {self.heading_aiding!r}"
+            )
+
+    @property
+    def aided(self) -> bool:
+        """Whether the dead reckoner fuses the AHRS yaw (``heading_aiding`` resolved)."""
+        if self.heading_aiding is not None:
+            return self.heading_aiding
+        return self.imu.gyro_bias_init_std * AUTO_AIDING_HORIZON_S > self.ahrs.yaw_noise_std
 
 
 @dataclass(frozen=True)
@@ -86,7 +106,7 @@ class NavSuite:
                 config.imu,
                 coast_velocity_std=config.coast_velocity_std,
                 initial_velocity_std=config.initial_velocity_std,
-                ahrs=config.ahrs if config.heading_aiding else None,
+                ahrs=config.ahrs if config.aided else None,
             ),
             t0=t0,
             initial_velocity_body=initial_velocity_body,
