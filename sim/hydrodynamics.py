@@ -36,8 +36,9 @@ body mass only (a collision impulse does not see the added mass) — accepted.
 Integration: MuJoCo's semi-implicit Euler at the world timestep (default 0.01 s); the
 hydrodynamic forces are evaluated at the start of each step (``mj_step1`` → forces →
 ``mj_step2``), i.e. damping is explicit. Stability needs h·(∂D/∂ν)/(m + m_A) ≪ 2 and
-h·ω_n ≪ 2; for the five vehicles at h = 0.01 s the largest values are 0.18 (SAGA surge
-at 3 m/s, beyond its top speed) and 0.06 (Alister 9 and SAGA roll).
+h·ω_n ≪ 2; for the five vehicles at h = 0.01 s the largest values are 0.22 (SAGA surge,
+after its open-frame added mass; at 3 m/s, beyond its top speed) and 0.06 (Alister 9 and
+SAGA roll).
 """
 
 from __future__ import annotations
