@@ -6,7 +6,7 @@ the effigy hit rate (positive tiles with a detected centroid inside the mask), P
 FPR of the detections (positives + negatives), detections per positive / negative tile,
 negative tiles with any detection, and the summed confusion matrix [[TP FN] [FP TN]].
 
-    python scripts/eval_sdvd.py [--data DIR] [--preset sdvd] [--filter sdvd|none]
+    python scripts/eval_sdvd.py [--data DIR] [--preset sdvd] [--filter sdvd|sdvd-contrast|sdvd-shadow|none]
                                 [--tol PX] [--json]
 """
 
@@ -41,7 +41,7 @@ def write_figure(path: Path, tiles, params, region_filter, n: int) -> None:
     import numpy as np
 
     from sim.cli.segment_cmd import overlay_image
-    from slam.frontend.segmentation import segment
+    from slam.frontend.segmentation import segment_filtered
 
     pos = [t for t in tiles if t.positive]
     neg = [t for t in tiles if not t.positive]
@@ -51,7 +51,7 @@ def write_figure(path: Path, tiles, params, region_filter, n: int) -> None:
     for t in chosen:
         panels = [cv2.cvtColor(t.image, cv2.COLOR_GRAY2BGR)]
         for m in ("improved-otsu", "kapur"):
-            res = segment(t.image, m, params, region_filter)
+            res = segment_filtered(t.image, m, params, region_filter)
             panels.append(overlay_image(t.image, res, t.mask if t.positive else None))
         rows.append(np.hstack(panels))
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -2,6 +2,15 @@
 methods, the morphology chain (Algorithm 2), region landmarks and scoring against ground
 truth masks. See the submodules' docstrings for the definitions."""
 
+from .detection_filters import (
+    FAR_RANGE,
+    DetectionFilter,
+    apply_detection_filter,
+    region_contrast_db,
+    segment_filtered,
+    shadow_dark_level,
+    shadow_fraction,
+)
 from .image import as_gray8, as_mask, load_gray8, load_mask
 from .kapur import kapur_entropy_curve, kapur_threshold, kapur_threshold_hist
 from .methods import (
@@ -42,14 +51,17 @@ from .scoring import (
 )
 
 __all__ = [
+    "FAR_RANGE",
     "METHODS",
     "PRESETS",
     "REGION_FILTERS",
+    "DetectionFilter",
     "DetectionScore",
     "Region",
     "RegionFilter",
     "SegmentationParams",
     "SegmentationResult",
+    "apply_detection_filter",
     "as_gray8",
     "as_mask",
     "bridge",
@@ -76,9 +88,13 @@ __all__ = [
     "params_for_shape",
     "power_law",
     "power_law_lut",
+    "region_contrast_db",
     "remove_small_components",
     "score_detections",
     "score_result",
     "segment",
+    "segment_filtered",
+    "shadow_dark_level",
+    "shadow_fraction",
     "sum_scores",
 ]

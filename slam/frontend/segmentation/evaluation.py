@@ -9,7 +9,8 @@ Honest tuning split (:func:`sdvd_split`): tiles are grouped by recording — for
 the side and the timestamp to the minute (``left_202404291018…``; the H and L frequency
 channels of one pass share a group), for negatives the leading recording number — and a
 group goes to the ``"tune"`` half when ``crc32(group) % 2 == 0``, else to ``"test"``. The
-region filter preset ``"sdvd"`` was chosen on the tune half only.
+region filter presets ``"sdvd"``, ``"sdvd-contrast"`` and ``"sdvd-shadow"`` were chosen
+on the tune half only.
 
 Per tile the effigy counts as one object (the whole mask, ``merge_components=True``); a
 detection is a true positive when its centroid pixel lies inside the mask (tolerance 0
@@ -28,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .detection_filters import DetectionFilter, segment_filtered
 from .image import load_gray8, load_mask
-from .methods import segment
 from .presets import SegmentationParams
 from .regions import RegionFilter
 from .scoring import DetectionScore, score_result, sum_scores
@@ -147,7 +148,7 @@ def evaluate(
     tiles: Sequence[LabelledTile] | Iterable[LabelledTile],
     method: str,
     params: SegmentationParams | str,
-    region_filter: RegionFilter | None = None,
+    region_filter: RegionFilter | DetectionFilter | None = None,
     *,
     tol_px: float = 0.0,
 ) -> MethodEvaluation:
@@ -158,7 +159,7 @@ def evaluate(
     n = 0
     for t in tiles:
         t0 = time.perf_counter()
-        res = segment(t.image, method, params, region_filter)
+        res = segment_filtered(t.image, method, params, region_filter)
         elapsed += time.perf_counter() - t0
         n += 1
         sc = score_result(res, t.mask, tol_px=tol_px, merge_components=True)
