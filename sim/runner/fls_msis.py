@@ -28,8 +28,9 @@ Both go through the same chain, :class:`PolarFrontend`:
    objects peak at 9-18 dB). Regions touching a truncating image edge (FLS: first / last
    beam and the far range bin; MSIS: the far range bin) are dropped: their centroid is
    not the object's.
-4. **Extended objects**: regions of one frame whose centroids lie closer than
-   ``merge_radius_m`` (single linkage) are one object (a wreck or a pipe broken into
+4. **Extended objects**: regions of one frame whose footprints (centroid +- half
+   their extent along the joining line) lie closer than ``merge_radius_m`` (single
+   linkage, :func:`footprint_gap_groups`) are one object (a wreck or a pipe broken into
    highlights). Each object's position is the centroid of its cells in metres (body
    frame, horizontal ranges), and its covariance is the cell covariance (range bin,
    max(beam width, angular step), each uniform) plus the second-moment matrix of its
@@ -259,16 +260,26 @@ def xy_to_range_bearing(
     return rho, np.arctan2(y, x), 0.5 * (R + np.swapaxes(R, -1, -2))
 
 
-def single_linkage_groups(xy: np.ndarray, radius: float) -> np.ndarray:
-    """Group index (n,) of points joined by chains of distances <= radius (scipy)."""
-    from scipy.cluster.hierarchy import fcluster, linkage
+def footprint_gap_groups(xy: np.ndarray, M: np.ndarray, radius: float) -> np.ndarray:
+    """Group index (n,) of regions joined by chains of footprint gaps <= radius (m).
+
+    The gap between regions i and j is their centroid distance less each one's half
+    extent along the line joining them, sqrt(3 dᵀ M d) (half the length of a uniform bar
+    with that variance; M the (n, 2, 2) second moments): two fragments of one 20 m wreck
+    have distant centroids but a small gap. Connected components with
+    scipy.sparse.csgraph."""
+    from scipy.sparse.csgraph import connected_components
 
     n = len(xy)
     if n <= 1 or radius <= 0:
         return np.arange(n)
-    g = fcluster(linkage(xy, method="single"), t=radius, criterion="distance")
-    _, inv = np.unique(g, return_inverse=True)
-    return inv
+    d = xy[None, :, :] - xy[:, None, :]
+    dist = np.linalg.norm(d, axis=-1)
+    u = d / np.maximum(dist, 1e-12)[..., None]
+    half = np.sqrt(3.0 * np.maximum(np.einsum("ijk,ikl,ijl->ij", u, M, u), 0.0))
+    gap = dist - half - half.T
+    _, lab = connected_components(gap <= radius, directed=False)
+    return lab
 
 
 class PersistenceFilter:
@@ -494,9 +505,9 @@ class PolarFrontend:
         remap = np.zeros(n_lab + 1, np.int64)
         remap[ids] = np.arange(1, ids.size + 1)
         lab_k = remap[labels]
-        cen, _, _ = region_moments(lab_k, ids.size, bx, by)
-        # one object = regions within merge_radius of each other (body frame)
-        grp = single_linkage_groups(cen, c.merge_radius_m)
+        cen, Mk, _ = region_moments(lab_k, ids.size, bx, by)
+        # one object = regions whose footprints lie within merge_radius (body frame)
+        grp = footprint_gap_groups(cen, Mk, c.merge_radius_m)
         ng = int(grp.max()) + 1
         gmap = np.concatenate([[0], grp + 1])
         groups = gmap[lab_k].astype(np.int32)

@@ -14,6 +14,7 @@ from sim.runner.fls_msis import (
     PolarFrontend,
     PolarFrontendConfig,
     condition_polar,
+    footprint_gap_groups,
     region_moments,
     xy_to_range_bearing,
 )
@@ -79,6 +80,17 @@ def test_xy_to_range_bearing_propagates_an_axis_covariance_analytically():
     )
     assert r[0] == pytest.approx(10.0) and b[0] == pytest.approx(0.0)
     np.testing.assert_allclose(R[0], [[4.1, 0.0], [0.0, 0.01 + 1.0 / 100.0]], atol=1e-12)
+
+
+def test_footprint_gap_joins_fragments_of_one_long_object_and_not_a_neighbour():
+    """Two 10 m bars along x end to end with a 1 m gap (centroids 11 m apart) are one
+    object for a 3 m merge radius (gap = 11 - 5 - 5 = 1 m, half length sqrt(3 var) with
+    var = L²/12); a compact region 6 m beyond the second bar's end is not."""
+    bar = np.diag([10.0**2 / 12, 0.01])
+    dot = np.diag([0.01, 0.01])
+    xy = np.array([[0.0, 0.0], [11.0, 0.0], [22.0, 0.0]])
+    g = footprint_gap_groups(xy, np.stack([bar, bar, dot]), 3.0)
+    assert g[0] == g[1] and g[2] != g[1]
 
 
 def test_persistence_confirms_a_recurring_object_and_not_scattered_speckle(rng):
