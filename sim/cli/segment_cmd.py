@@ -50,8 +50,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--filter",
         default="none",
         choices=tuple(REGION_FILTERS),
-        help="landmark filter preset applied after Algorithm 2 (default none); the options "
-        "below override its fields",
+        help="landmark filter preset applied after Algorithm 2 (default none; sdvd-contrast "
+        "and sdvd-shadow add the side-scan local-contrast / acoustic-shadow tests); the "
+        "options below override its fields",
+    )
+    parser.add_argument(
+        "--min-contrast-db",
+        type=float,
+        default=None,
+        help="detection filter: min local contrast, dB (region vs background ring)",
+    )
+    parser.add_argument(
+        "--far-range",
+        default=None,
+        choices=("left", "right", "either"),
+        help="detection filter: side of far range along the columns, where the shadow lies",
     )
     parser.add_argument("--min-area", type=int, default=None, help="region filter: min area px")
     parser.add_argument("--max-area", type=float, default=None, help="region filter: max area px")
@@ -113,13 +126,14 @@ def run(args: argparse.Namespace) -> int:
 
     from slam.frontend.segmentation import (
         METHODS,
+        DetectionFilter,
         RegionFilter,
         get_preset,
         get_region_filter,
         load_gray8,
         load_mask,
         score_result,
-        segment,
+        segment_filtered,
         sum_scores,
     )
 
@@ -132,9 +146,22 @@ def run(args: argparse.Namespace) -> int:
             "max_elongation": args.max_elongation,
             "max_count": args.max_count,
         }
-        region_filter = RegionFilter(
-            **{k: (getattr(base, k) if v is None else v) for k, v in overrides.items()}
+        geo = base.region if isinstance(base, DetectionFilter) else base
+        geo = RegionFilter(
+            **{k: (getattr(geo, k) if v is None else v) for k, v in overrides.items()}
         )
+        if isinstance(base, DetectionFilter) or (
+            args.min_contrast_db is not None or args.far_range is not None
+        ):
+            det = base if isinstance(base, DetectionFilter) else DetectionFilter()
+            changes = {"region": geo}
+            if args.min_contrast_db is not None:
+                changes["min_contrast_db"] = args.min_contrast_db
+            if args.far_range is not None:
+                changes["far_range"] = args.far_range
+            region_filter = det.with_(**changes)
+        else:
+            region_filter = geo
     except ValueError as exc:
         print(f"undersea segment: {exc}", file=sys.stderr)
         return 2
@@ -165,7 +192,7 @@ def run(args: argparse.Namespace) -> int:
             return 2
         params = get_preset(args.preset, gray.shape)
         for method in methods:
-            res = segment(
+            res = segment_filtered(
                 gray, method, params, None if region_filter.is_identity else region_filter
             )
             rec = {"image": str(path), "shape": list(gray.shape), **res.to_dict()}

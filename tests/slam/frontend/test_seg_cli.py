@@ -79,3 +79,28 @@ def test_segment_errors(tmp_path, capsys):
     assert main(["segment", str(p), "--masks", str(masks)]) == 2
     assert "differs from the image shape" in capsys.readouterr().err
     assert main(["segment", str(p), "--max-elongation", "0.5"]) == 2
+
+
+def test_segment_cli_shadow_filter_far_range(tmp_path, capsys):
+    """Synthetic seabed (100) with two 10×10 highlights (200), only the left one followed
+    by a 30-px shadow (20) towards column 0: with --filter sdvd-shadow --far-range left
+    exactly that highlight is reported; the plain 'sdvd' filter reports both."""
+    g = np.full((128, 128), 100, dtype=np.uint8)
+    g[40:50, 70:80] = 200
+    g[40:50, 40:70] = 20
+    g[90:100, 60:70] = 200
+    path = tmp_path / "scene.png"
+    cv2.imwrite(str(path), g)
+    base = ["segment", str(path), "--method", "kapur", "--preset", "sdvd", "--json"]
+    assert main([*base, "--filter", "sdvd-shadow", "--far-range", "left"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["region_filter"]["far_range"] == "left"
+    lms = data["images"][0]["landmarks"]
+    assert len(lms) == 1
+    x, y = lms[0]["centroid_xy"]
+    assert 70 <= x < 80 and 40 <= y < 50
+    assert main([*base, "--filter", "sdvd"]) == 0
+    assert len(json.loads(capsys.readouterr().out)["images"][0]["landmarks"]) == 2
+    with pytest.raises(SystemExit) as exc:
+        main([*base, "--filter", "sdvd-shadow", "--far-range", "up"])
+    assert exc.value.code == 2
