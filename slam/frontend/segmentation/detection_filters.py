@@ -261,10 +261,19 @@ class DetectionFilter:
         return c, s
 
     def apply(
-        self, regions: tuple[Region, ...], gray8: np.ndarray, labels: np.ndarray
+        self,
+        regions: tuple[Region, ...],
+        gray8: np.ndarray | None = None,
+        labels: np.ndarray | None = None,
     ) -> tuple[Region, ...]:
         """The regions kept (in label order) from ``regions`` of the label image ``labels``
-        of ``gray8``."""
+        of ``gray8`` (both required: the scores need the image)."""
+        if gray8 is None or labels is None:
+            raise ValueError(
+                "DetectionFilter.apply: needs gray8 and labels (the contrast and shadow "
+                "scores read the image); use segment_filtered(image, method, params, filt) "
+                "or apply_detection_filter(result, filt) instead of segment(..., filt)"
+            )
         geo = [r for r in regions if self.region.keep(r)]
         if not geo:
             return ()

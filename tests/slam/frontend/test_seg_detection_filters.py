@@ -18,6 +18,7 @@ from slam.frontend.segmentation import (
     extract_regions,
     get_region_filter,
     region_contrast_db,
+    segment,
     segment_filtered,
     shadow_dark_level,
     shadow_fraction,
@@ -191,6 +192,9 @@ def test_bad_input_raises_named_errors():
         DetectionFilter(rank_by="size")
     with pytest.raises(ValueError, match="annulus_px"):
         region_contrast_db(g, labels, 0)
+    # passed to segment() directly (no image for the scores): a clear error
+    with pytest.raises(ValueError, match="segment_filtered"):
+        segment(g, "kapur", "sdvd", REGION_FILTERS["sdvd-contrast"])
     # no regions / all-zero image: documented empty results, no division by zero
     z = np.zeros((8, 8), dtype=np.uint8)
     zl = np.zeros((8, 8), dtype=np.int32)
