@@ -326,6 +326,7 @@ class ScenarioRun:
                     log_compressed=cfg.acoustic.log_compression,
                     dynamic_range_db=cfg.acoustic.dynamic_range_db,
                     config=MSIS_FRONTEND,
+                    mount_xy=tuple(w.model.site_pos[h.site_ids["msis"]][:2]),
                 )
             return SonarRuntime(
                 sp, "msis", son, 1.0 / cfg.ping_rate_hz, rng, msis_angles=ang, polar=polar
@@ -345,6 +346,7 @@ class ScenarioRun:
                 log_compressed=cfg.acoustic.log_compression,
                 dynamic_range_db=cfg.acoustic.dynamic_range_db,
                 config=FLS_FRONTEND,
+                mount_xy=tuple(w.model.site_pos[h.site_ids["fls"]][:2]),
             )
         return SonarRuntime(sp, "fls", son, 1.0 / cfg.ping_rate_hz, rng, polar=polar)
 

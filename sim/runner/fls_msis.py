@@ -394,7 +394,9 @@ class PolarFrontend:
     layout "fls": image (n_bins, n_beams), ``angles`` the beam bearings (n_beams,) rad;
     layout "msis": image (n_angles, n_bins), ``angles`` the head angle of each row.
     ranges: (n_bins,) m bin centres (slant); bin_width m; angular_cell: rad, the
-    angular resolution (max of beam width and beam / step spacing).
+    angular resolution (max of beam width and beam / step spacing). mount_xy: m, the
+    sonar's position in the vehicle body frame (x forward, y port); observations are
+    expressed from the vehicle origin.
     segment(gray8) -> (labels, regions) is the front end's segmentation adapter.
     """
 
@@ -410,6 +412,7 @@ class PolarFrontend:
         log_compressed: bool,
         dynamic_range_db: float,
         config: PolarFrontendConfig,
+        mount_xy: tuple[float, float] = (0.0, 0.0),
     ) -> None:
         if layout not in ("fls", "msis"):
             raise ValueError(f"layout = {layout!r}: allowed 'fls' or 'msis'")
@@ -419,6 +422,7 @@ class PolarFrontend:
         self.angles = np.asarray(angles, float)
         self.bin_width = float(bin_width)
         self.angular_cell = float(angular_cell)
+        self.mount_xy = (float(mount_xy[0]), float(mount_xy[1]))
         d = np.abs(np.diff(self.angles))
         self.angular_spacing = float(np.median(d)) if d.size else self.angular_cell
         self.log_compressed = bool(log_compressed)
@@ -501,7 +505,8 @@ class PolarFrontend:
         # body coordinates of every cell (horizontal range on a flat seabed)
         alt = float(altitude) if altitude is not None and np.isfinite(altitude) else 0.0
         horiz = np.sqrt(np.clip(slant**2 - alt**2, 0.0, None))
-        bx, by = horiz * np.cos(ang), horiz * np.sin(ang)
+        bx = horiz * np.cos(ang) + self.mount_xy[0]
+        by = horiz * np.sin(ang) + self.mount_xy[1]
         remap = np.zeros(n_lab + 1, np.int64)
         remap[ids] = np.arange(1, ids.size + 1)
         lab_k = remap[labels]
