@@ -320,6 +320,30 @@ class SidescanProcessor:
         return 1.0 / dt if dt > 0 else 10.0
 
 
+def no_return_mask(img: np.ndarray) -> np.ndarray:
+    """(P, 2S) bool: samples past the last echo of each ping side (port left, far first).
+
+    A side-scan ping that runs past the end of the insonified seabed (the swath cut off by
+    the edge of the surveyed area, a bank, the end of the recorded range) ends in a run of
+    samples at the display floor (value <= 0, log-compressed or linear). That trailing run,
+    counted from the far end of each side, is flagged; isolated dark samples before the
+    last echo (speckle dips, shadows behind objects) are not. Vectorized over pings.
+    """
+    x = np.asarray(img)
+    if x.ndim != 2 or x.shape[1] % 2:
+        raise ValueError(f"img must be (pings, 2 x samples), got shape {x.shape}")
+    s = x.shape[1] // 2
+    echo = x > 0
+    # per side, near -> far; the last echo index (-1: none)
+    out = np.empty(x.shape, dtype=bool)
+    for cols, flip in ((slice(None, s), True), (slice(s, None), False)):
+        e = echo[:, cols][:, ::-1] if flip else echo[:, cols]
+        last = np.where(e.any(axis=1), s - 1 - np.argmax(e[:, ::-1], axis=1), -1)
+        m = np.arange(s)[None, :] > last[:, None]
+        out[:, cols] = m[:, ::-1] if flip else m
+    return out
+
+
 def make_sss_prepare(
     log_compressed: bool, dynamic_range_db: float, looks: int = 3, normalization: str = "mira"
 ):
@@ -333,8 +357,11 @@ def make_sss_prepare(
        middle ping), or ``"column-median"``: each range sample divided by its median over
        the window's pings (the usual empirical along-track normalization; it also removes
        range-gain shapes the two exponentials cannot fit, such as a rise near nadir);
-    3. the water column (slant range < altitude of that ping) set to the seabed level 1,
-       so the threshold separates highlights from seabed, not seabed from water;
+    3. the water column (slant range < altitude of that ping) and the samples past the
+       last echo of a ping (:func:`no_return_mask`: a swath cut off by the end of the
+       seabed) set to the seabed level 1, so the threshold separates highlights from
+       seabed, not seabed from water or from no data (a large no-data block at -10 dB
+       makes the window's histogram bimodal and drags the threshold into the seabed);
     4. ``looks`` x ``looks`` incoherent averaging (cv2.blur) against single-look speckle;
     5. dB (10 log10, clipped to [-10, 20] dB) for the segmentation.
     """
@@ -351,13 +378,14 @@ def make_sss_prepare(
             if log_compressed
             else img.astype(np.float64)
         )
+        noret = no_return_mask(img)
         if normalization == "mira":
             m = mira_normalize(lin.astype(np.float32), average=9).normalized
         else:
             m = lin / np.maximum(np.median(lin, axis=0, keepdims=True), 1e-12)
         S = m.shape[1] // 2
         wc = slant[None, :] < altitudes[:, None]  # (P, S) near -> far
-        full = np.concatenate([wc[:, ::-1], wc], axis=1)
+        full = np.concatenate([wc[:, ::-1], wc], axis=1) | noret
         m = np.where(full, 1.0, m).astype(np.float32)
         if looks > 1:
             m = cv2.blur(m, (looks, looks))
