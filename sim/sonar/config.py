@@ -153,6 +153,23 @@ def _check_samples(name: str, n: int, span: float, resolution: float) -> None:
         )
 
 
+def _check_polar(cfg: Any) -> None:
+    """Checks shared by the range-binned polar sonars (FLS, MSIS)."""
+    _check_common(cfg, 1000.0)
+    _check_samples("n_bins", cfg.n_bins, cfg.max_range - cfg.min_range, cfg.range_resolution)
+    _check_range("tilt_deg", cfg.tilt_deg, -90.0, 90.0)
+    _check_choice("beam_pattern", cfg.beam_pattern, ("gaussian", "sinc", "rect"))
+    _check_range("sidelobe_db", cfg.sidelobe_db, -200.0, 0.0)
+
+
+class _RangeBins:
+    """``bin_width`` of a sonar binned over [min_range, max_range] in n_bins, m."""
+
+    @property
+    def bin_width(self) -> float:
+        return (self.max_range - self.min_range) / self.n_bins
+
+
 @dataclass(frozen=True)
 class SSSConfig:
     """Side-scan sonar (port + starboard transducers).
@@ -217,7 +234,7 @@ class SSSConfig:
 
 
 @dataclass(frozen=True)
-class FLSConfig:
+class FLSConfig(_RangeBins):
     """Forward-looking multibeam imaging sonar.
 
     n_beams across horizontal_fov_deg (beam centres uniformly spaced, bearing +ccw from body
@@ -244,28 +261,18 @@ class FLSConfig:
     acoustic: AcousticConfig = field(default_factory=lambda: AcousticConfig(source_level_db=206.0))
 
     def __post_init__(self) -> None:
-        _check_common(self, 1000.0)
-        _check_samples(
-            "n_bins", self.n_bins, self.max_range - self.min_range, self.range_resolution
-        )
+        _check_polar(self)
         if not isinstance(self.n_beams, int) or not 1 <= self.n_beams <= 4096:
             raise ValueError(f"n_beams = {self.n_beams!r}: allowed integer 1 .. 4096")
         if not isinstance(self.rays_per_beam, int) or not 1 <= self.rays_per_beam <= 1024:
             raise ValueError(f"rays_per_beam = {self.rays_per_beam!r}: allowed integer 1 .. 1024")
         _check_range("horizontal_fov_deg", self.horizontal_fov_deg, 0.0, 180.0, lo_open=True)
         _check_range("vertical_fov_deg", self.vertical_fov_deg, 0.0, 90.0, lo_open=True)
-        _check_range("tilt_deg", self.tilt_deg, -90.0, 90.0)
         _check_range("beamwidth_deg", self.beamwidth_deg, 0.0, 30.0, lo_open=True)
-        _check_choice("beam_pattern", self.beam_pattern, ("gaussian", "sinc", "rect"))
-        _check_range("sidelobe_db", self.sidelobe_db, -200.0, 0.0)
-
-    @property
-    def bin_width(self) -> float:
-        return (self.max_range - self.min_range) / self.n_bins
 
 
 @dataclass(frozen=True)
-class MSISConfig:
+class MSISConfig(_RangeBins):
     """Mechanically scanned imaging sonar: one fan beam rotating about the site's z axis.
 
     step_deg: head step per ping; sector_deg: scanned sector (360 = full circle) centred
@@ -294,10 +301,7 @@ class MSISConfig:
     acoustic: AcousticConfig = field(default_factory=lambda: AcousticConfig(source_level_db=206.0))
 
     def __post_init__(self) -> None:
-        _check_common(self, 1000.0)
-        _check_samples(
-            "n_bins", self.n_bins, self.max_range - self.min_range, self.range_resolution
-        )
+        _check_polar(self)
         _check_range("step_deg", self.step_deg, 0.0, 90.0, lo_open=True)
         _check_range("sector_deg", self.sector_deg, 0.0, 360.0, lo_open=True)
         _check_range("sector_center_deg", self.sector_center_deg, -360.0, 360.0)
@@ -305,17 +309,10 @@ class MSISConfig:
             "horizontal_beamwidth_deg", self.horizontal_beamwidth_deg, 0.0, 30.0, lo_open=True
         )
         _check_range("vertical_beamwidth_deg", self.vertical_beamwidth_deg, 0.0, 90.0, lo_open=True)
-        _check_range("tilt_deg", self.tilt_deg, -90.0, 90.0)
-        _check_choice("beam_pattern", self.beam_pattern, ("gaussian", "sinc", "rect"))
-        _check_range("sidelobe_db", self.sidelobe_db, -200.0, 0.0)
         for name in ("rays_horizontal", "rays_vertical"):
             v = getattr(self, name)
             if not isinstance(v, int) or not 1 <= v <= 1024:
                 raise ValueError(f"{name} = {v!r}: allowed integer 1 .. 1024")
-
-    @property
-    def bin_width(self) -> float:
-        return (self.max_range - self.min_range) / self.n_bins
 
     @property
     def n_steps(self) -> int:
