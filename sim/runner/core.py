@@ -319,7 +319,7 @@ class ScenarioRun:
                 polar = PolarFrontend(
                     "msis",
                     _segmenter(fe.method, fe.preset),
-                    ranges=cfg.min_range + (np.arange(cfg.n_bins) + 0.5) * cfg.bin_width,
+                    ranges=son.ranges,
                     angles=ang,
                     bin_width=cfg.bin_width,
                     angular_cell=math.radians(max(cfg.horizontal_beamwidth_deg, cfg.step_deg)),

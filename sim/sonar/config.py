@@ -23,6 +23,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Literal, Protocol
 
+import numpy as np
+
 SpeckleModel = Literal["none", "rayleigh", "k"]
 BeamPattern = Literal["gaussian", "sinc", "rect"]
 TvgMode = Literal["none", "spreading", "spreading_absorption"]
@@ -168,6 +170,11 @@ class _RangeBins:
     @property
     def bin_width(self) -> float:
         return (self.max_range - self.min_range) / self.n_bins
+
+    @property
+    def bin_centres(self) -> np.ndarray:
+        """(n_bins,) range at the centre of each bin, m."""
+        return self.min_range + (np.arange(self.n_bins) + 0.5) * self.bin_width
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,7 @@ class ForwardLookingSonar:
         )
         self.config = c = config
         self.bin_width = c.bin_width
-        self.ranges = c.min_range + (np.arange(c.n_bins) + 0.5) * self.bin_width
+        self.ranges = c.bin_centres
         fov = np.deg2rad(c.horizontal_fov_deg)
         nb = c.n_beams
         self.bearings = (0.5 - (np.arange(nb) + 0.5) / nb) * fov

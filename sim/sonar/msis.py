@@ -91,7 +91,7 @@ class MSISSonar:
         )
         self.config = c = config
         self.bin_width = c.bin_width
-        self.ranges = c.min_range + (np.arange(c.n_bins) + 0.5) * self.bin_width
+        self.ranges = c.bin_centres
         hbw = np.deg2rad(c.horizontal_beamwidth_deg)
         vbw = np.deg2rad(c.vertical_beamwidth_deg)
         tilt = np.deg2rad(c.tilt_deg)
