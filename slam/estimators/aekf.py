@@ -298,6 +298,8 @@ def update(
     x_lin=None,
     batch: bool = True,
     joseph: bool = False,
+    iterations: int = 1,
+    relinearize_gate: float = 1.0,
     inplace: bool = False,
 ):
     """Update with range-bearing observations of known landmarks (eqs. 5.28–5.39).
@@ -313,6 +315,15 @@ def update(
         (identical for a linear model; differ by re-linearization in the EKF).
     joseph : Joseph form ``(I - K H) P (I - K H)ᵀ + K R Kᵀ`` expanded in O(n² k); otherwise
         ``P - W1 W1ᵀ`` with ``W1 = P Hᵀ L⁻ᵀ``, ``S = L Lᵀ`` (symmetric by construction).
+    iterations : 1 is the EKF update. More makes it the iterated EKF (Bell and Cathey
+        1993): Gauss–Newton on the update's MAP cost, ``x_{i+1} = x0 + K_i (z - h(x_i) -
+        H_i (x0 - x_i))`` with ``H_i`` at the iterate ``x_i``, at most ``iterations`` times
+        or until the step is below 1e-9 — but only when the EKF step's linearization error
+        (:func:`_linearization_error`, in units of R) exceeds ``relinearize_gate``. That
+        happens at a loop closure, where one observation corrects metres of drift and the
+        single linearization at the predicted pose falls short; the covariance then uses
+        ``H`` at the converged estimate (first estimates are metres off there). Routine
+        updates stay EKF (or FEJ) updates.
 
     Returns ``(x, P)``.
     """
@@ -326,32 +337,103 @@ def update(
     R = np.asarray(R, dtype=float)
     if R.shape == (2, 2):
         R = np.broadcast_to(R, (idx.size, 2, 2))
+    if not (isinstance(iterations, int | np.integer) and iterations >= 1):
+        raise ValueError(f"iterations must be an integer >= 1, got {iterations!r}")
     if idx.size == 0:
         return x, P
     if batch:
-        _update_block(x, P, z, R, idx, x_lin, joseph)
+        _update_block(x, P, z, R, idx, x_lin, joseph, iterations, relinearize_gate)
     else:
         for j in range(idx.size):
-            _update_block(x, P, z[j : j + 1], R[j : j + 1], idx[j : j + 1], x_lin, joseph)
+            _update_block(
+                x,
+                P,
+                z[j : j + 1],
+                R[j : j + 1],
+                idx[j : j + 1],
+                x_lin,
+                joseph,
+                iterations,
+                relinearize_gate,
+            )
     return x, P
 
 
-def _update_block(x, P, z, R, idx, x_lin, joseph) -> None:
-    k = idx.size
-    zhat, Hv, Hm = observe(x, idx, x_lin=x_lin)
-    y = _innovation(z, zhat).reshape(-1)
+def _gain_factors(P, idx, Hv, Hm, Rb):
+    """``(P Hᵀ, S, L)`` with ``S = H P Hᵀ + R = L Lᵀ``: O(N k)."""
     PHt = _PHt(P, idx, Hv, Hm)
+    S = _HPHt(PHt, idx, Hv, Hm) + Rb
+    S = 0.5 * (S + S.T)
+    return PHt, S, np.linalg.cholesky(S)
+
+
+def _iterated_mean(x0, P, z, idx, Rb, iterations: int) -> np.ndarray:
+    """Iterated-EKF mean (Gauss–Newton on ``|z - h(x)|²_R + |x - x0|²_P``), the
+    Jacobians re-evaluated at each iterate. Only the pose and the observed landmarks enter
+    ``h``, so each iteration costs O(N k)."""
+    cols = (3 + 2 * idx[:, None] + np.arange(2)).reshape(-1)
+    xi = x0.copy()
+    for _ in range(iterations):
+        zhat, Hv, Hm = observe(xi, idx)
+        PHt, _, L = _gain_factors(P, idx, Hv, Hm, Rb)
+        dx_v = x0[:3] - xi[:3]
+        dx_v[2] = _wrap_f(float(dx_v[2]))
+        dx_m = (x0[cols] - xi[cols]).reshape(-1, 2)
+        r = (
+            _innovation(z, zhat)
+            - np.einsum("kba,a->kb", Hv, dx_v)
+            - np.einsum("kba,ka->kb", Hm, dx_m)
+        )
+        xn = x0 + _trsolve(L, _trsolve(L, r.reshape(-1)), trans=1) @ PHt.T
+        xn[2] = _wrap_f(float(xn[2]))
+        step = xn - xi
+        step[2] = _wrap_f(float(step[2]))
+        xi = xn
+        if float(np.max(np.abs(step))) < 1e-9:
+            break
+    return xi
+
+
+def _linearization_error(x0, step, idx, Rb) -> float:
+    """``eᵀ R⁻¹ e`` with ``e = h(x0 + step) - h(x0) - H(x0) step``: the part of the EKF
+    step's predicted change of the observations that the linear model got wrong, in units
+    of the observation noise."""
+    _, Hv, Hm = observe(x0, idx)
+    cols = (3 + 2 * idx[:, None] + np.arange(2)).reshape(-1)
+    x1 = x0 + step
+    z0, _, _ = observe(x0, idx)
+    z1, _, _ = observe(x1, idx)
+    lin = np.einsum("kba,a->kb", Hv, step[:3]) + np.einsum(
+        "kba,ka->kb", Hm, step[cols].reshape(-1, 2)
+    )
+    e = (_innovation(z1, z0) - lin).reshape(-1)
+    return float(e @ np.linalg.solve(Rb, e))
+
+
+def _update_block(
+    x, P, z, R, idx, x_lin, joseph, iterations: int = 1, relinearize_gate: float = 1.0
+) -> None:
+    k = idx.size
     Rb = np.zeros((2 * k, 2 * k))
     for j in range(k):  # k observations of one scan, not landmarks
         Rb[2 * j : 2 * j + 2, 2 * j : 2 * j + 2] = R[j]
-    HPHt = _HPHt(PHt, idx, Hv, Hm)
-    S = HPHt + Rb
-    S = 0.5 * (S + S.T)
-    L = np.linalg.cholesky(S)
+    zhat, Hv, Hm = observe(x, idx, x_lin=x_lin)
+    y = _innovation(z, zhat).reshape(-1)
+    PHt, S, L = _gain_factors(P, idx, Hv, Hm, Rb)
     # W1 = P Hᵀ L⁻ᵀ, K = W1 L⁻¹ (gain, thesis's W); x += K y = W1 (L⁻¹ y)
     W1 = _trsolve(L, PHt.T).T
-    x += W1 @ _trsolve(L, y)
-    x[2] = _wrap_f(float(x[2]))
+    step = W1 @ _trsolve(L, y)
+    if iterations > 1 and _linearization_error(x, step, idx, Rb) > relinearize_gate:
+        # the EKF step left the region where h is linear (a loop closure correcting
+        # metres of drift): iterate, and take the covariance at the converged estimate
+        x_new = _iterated_mean(x, P, z, idx, Rb, iterations)
+        _, Hv, Hm = observe(x_new, idx)
+        PHt, S, L = _gain_factors(P, idx, Hv, Hm, Rb)
+        W1 = _trsolve(L, PHt.T).T
+        x[...] = x_new
+    else:
+        x += step
+        x[2] = _wrap_f(float(x[2]))
     if joseph:
         # (I-KH)P(I-KH)ᵀ + KRKᵀ = P - K(HP) - (PHᵀ)Kᵀ + K(HPHᵀ + R)Kᵀ, all O(n² k)
         K = _trsolve(L, W1.T, trans=1).T
@@ -602,6 +684,8 @@ class AEKFConfig:
         zero (``dᵀ C⁻¹ d < merge_gate``, C the covariance of the difference) are fused by
         the constraint ``x_i - x_j = 0`` (an exact observation) and the newer one removed:
         a landmark duplicated at a loop closure rejoins its original.
+    iterations : Gauss–Newton iterations of each update (1 = EKF; more = iterated EKF,
+        see :func:`update`), for the large corrections of a loop closure.
     fej_gating : with FEJ, gate the association with the FEJ Jacobians too; default False
         gates with the current-estimate Jacobians (first estimates can be far off after a
         loop closure, and a wrong S in the gate creates duplicate landmarks).
@@ -627,6 +711,8 @@ class AEKFConfig:
     merge_gate: float | None = None
     merge_radius_m: float = 5.0
     merge_every: int = 10
+    iterations: int = 1
+    relinearize_gate: float = 1.0
     blas_threads: int | None = 1
 
     def __post_init__(self) -> None:
@@ -641,6 +727,8 @@ class AEKFConfig:
             raise ValueError(f"association must be 'ml', 'nn' or 'known', got {self.association!r}")
         if self.jacobians not in ("standard", "fej"):
             raise ValueError(f"jacobians must be 'standard' or 'fej', got {self.jacobians!r}")
+        if not (isinstance(self.iterations, int) and self.iterations >= 1):
+            raise ValueError(f"iterations must be an integer >= 1, got {self.iterations!r}")
         if self.max_misses is not None and self.max_misses < 1:
             raise ValueError(f"max_misses must be >= 1 or None, got {self.max_misses}")
         if not self.max_range_m > 0:
@@ -779,6 +867,8 @@ class AEKFSlam:
                 x_lin=x_lin,
                 batch=cfg.batch,
                 joseph=cfg.joseph,
+                iterations=cfg.iterations,
+                relinearize_gate=cfg.relinearize_gate,
                 inplace=True,
             )
         assoc = idx.copy()

@@ -388,10 +388,19 @@ def test_non_psd_initial_covariance_rejected():
     joseph=st.booleans(),
     fej=st.booleans(),
     batch=st.booleans(),
+    iterations=st.sampled_from([1, 5]),
 )
-def test_covariance_stays_symmetric_psd_over_random_sequences(seed, steps, joseph, fej, batch):
+def test_covariance_stays_symmetric_psd_over_random_sequences(
+    seed, steps, joseph, fej, batch, iterations
+):
     rng = np.random.default_rng(seed)
-    f = AEKFSlam(joseph=joseph, jacobians="fej" if fej else "standard", batch=batch)
+    f = AEKFSlam(
+        joseph=joseph,
+        jacobians="fej" if fej else "standard",
+        batch=batch,
+        iterations=iterations,
+        relinearize_gate=0.0,  # iterate every update
+    )
     lms = rng.uniform(-25, 25, (8, 2))
     truth = np.zeros(3)
     for _ in range(steps):
@@ -440,3 +449,65 @@ def test_merge_fuses_a_duplicated_landmark_exactly():
     assert f.n_landmarks == 1 and f.n_merged == 1
     np.testing.assert_allclose(f.x, x_ref[:5], atol=1e-9)
     np.testing.assert_allclose(f.P, P_ref[:5, :5], atol=1e-9)
+
+
+def _map_of_one_update(x0, P, z, R, idx):
+    """MAP of one update by scipy's least squares on ``|z - h(x)|²_R + |x - x0|²_P`` (an
+    optimizer that shares no code with the filter)."""
+    from scipy.optimize import least_squares
+
+    Lp = np.linalg.cholesky(np.linalg.inv(P)).T
+    Rs = np.diag(1.0 / np.sqrt(np.diag(R)))
+
+    def res(xx):
+        v = np.array([_h(xx, i) for i in idx]) - z
+        v[:, 1] = (v[:, 1] + np.pi) % (2 * np.pi) - np.pi
+        return np.concatenate([(v @ Rs).ravel(), Lp @ (xx - x0)])
+
+    return least_squares(res, x0, xtol=1e-14, ftol=1e-14, gtol=1e-14).x
+
+
+def test_iterated_update_converges_to_the_map_of_the_update(rng):
+    """Iterated EKF (``iterations`` > 1) on a large correction — the prior pose metres off,
+    as at a loop closure — equals the maximum a posteriori estimate of that update found
+    by scipy's least squares; the one-shot EKF update does not."""
+    x, P = _random_state(rng, n=2, spread=15.0)
+    P[:3, :3] += np.diag([4.0, 4.0, 0.01])  # loop-closure-size pose uncertainty
+    truth = x.copy()
+    truth[:2] += [2.5, -2.0]  # the prior is 3.2 m off
+    idx = np.array([0, 1])
+    R = np.diag([0.01, 3e-4])
+    z = np.array([_h(truth, i) for i in idx])
+    x_map = _map_of_one_update(x, P, z, R, idx)
+    x_iekf, P_iekf = update(x, P, z, R, idx, iterations=20)
+    x_ekf, _ = update(x, P, z, R, idx)
+    np.testing.assert_allclose(x_iekf, x_map, atol=1e-6)
+    assert np.max(np.abs(x_ekf - x_map)) > 1e-2  # the linearization mattered here
+    # covariance: the EKF covariance of the linearization at the converged estimate
+    H = _dense_H(x_iekf, idx)
+    S = H @ P @ H.T + np.kron(np.eye(2), R)
+    K = P @ H.T @ np.linalg.inv(S)
+    np.testing.assert_allclose(P_iekf, (np.eye(x.size) - K @ H) @ P, atol=1e-9)
+
+
+def test_iterated_update_is_the_ekf_update_when_the_step_is_linear(rng):
+    """A tiny correction has no linearization error above the gate: the iterated filter
+    returns exactly the EKF update (iteration is only for loop-closure-size steps)."""
+    x, P = _random_state(rng)
+    P *= 1e-4
+    idx = np.array([0, 2])
+    R = np.diag([0.01, 3e-4])
+    z = np.array([_h(x, i) for i in idx]) + [0.01, 0.001]
+    x1, P1 = update(x, P, z, R, idx)
+    x2, P2 = update(x, P, z, R, idx, iterations=10)
+    np.testing.assert_array_equal(x1, x2)
+    np.testing.assert_array_equal(P1, P2)
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5])
+def test_bad_iterations_rejected(bad):
+    with pytest.raises(ValueError, match="iterations"):
+        AEKFSlam(iterations=bad)
+    x, P = _random_state(np.random.default_rng(0))
+    with pytest.raises(ValueError, match="iterations"):
+        update(x, P, [[10.0, 0.1]], np.diag([0.01, 3e-4]), [0], iterations=bad)
