@@ -497,7 +497,7 @@ def test_iterated_update_is_the_ekf_update_when_the_step_is_linear(rng):
     P *= 1e-4
     idx = np.array([0, 2])
     R = np.diag([0.01, 3e-4])
-    z = np.array([_h(x, i) for i in idx]) + [0.01, 0.001]
+    z = np.array([_h(x, i) for i in idx]) + np.array([0.01, 0.001])
     x1, P1 = update(x, P, z, R, idx)
     x2, P2 = update(x, P, z, R, idx, iterations=10)
     np.testing.assert_array_equal(x1, x2)
