@@ -46,6 +46,7 @@ from slam.estimators.base import UpdateResult
 from slam.types import Odometry, RangeBearing
 
 __all__ = [
+    "AEKF_PRESETS",
     "AEKFConfig",
     "AEKFSlam",
     "associate",
@@ -321,9 +322,10 @@ def update(
         or until the step is below 1e-9 — but only when the EKF step's linearization error
         (:func:`_linearization_error`, in units of R) exceeds ``relinearize_gate``. That
         happens at a loop closure, where one observation corrects metres of drift and the
-        single linearization at the predicted pose falls short; the covariance then uses
-        ``H`` at the converged estimate (first estimates are metres off there). Routine
-        updates stay EKF (or FEJ) updates.
+        single linearization at the predicted pose falls short. The covariance then uses
+        ``H`` at the converged estimate, or at ``x_lin`` when given (first-estimates
+        Jacobians keep the filter's unobservable subspace). Routine updates stay EKF (or
+        FEJ) updates.
 
     Returns ``(x, P)``.
     """
@@ -425,9 +427,12 @@ def _update_block(
     step = W1 @ _trsolve(L, y)
     if iterations > 1 and _linearization_error(x, step, idx, Rb) > relinearize_gate:
         # the EKF step left the region where h is linear (a loop closure correcting
-        # metres of drift): iterate, and take the covariance at the converged estimate
+        # metres of drift): iterate the mean. The covariance takes H at the converged
+        # estimate, or with FEJ still at the first estimates: re-linearizing it there
+        # once per loop closure gave the filter spurious heading information (50 dense
+        # loops: NEES 3.81 against 3.18, 51 % of scans inside the bounds against 87 %).
         x_new = _iterated_mean(x, P, z, idx, Rb, iterations)
-        _, Hv, Hm = observe(x_new, idx)
+        _, Hv, Hm = observe(x, idx, x_lin=x_lin) if x_lin is not None else observe(x_new, idx)
         PHt, S, L = _gain_factors(P, idx, Hv, Hm, Rb)
         W1 = _trsolve(L, PHt.T).T
         x[...] = x_new
@@ -735,13 +740,23 @@ class AEKFConfig:
             raise ValueError(f"max_range_m must be > 0, got {self.max_range_m}")
 
 
+AEKF_PRESETS: dict[str, dict] = {
+    # Bailey's toolbox as the reference ran it (the AEKFConfig defaults)
+    "reference": {},
+    # the most consistent combination measured (slam/experiments/README.md): first-estimates
+    # Jacobians, the unambiguous-association rule and iterated loop-closure updates
+    "consistent": {"jacobians": "fej", "unambiguous_gate": 25.0, "iterations": 10},
+}
+
+
 class AEKFSlam:
     """AEKF-SLAM behind :class:`slam.estimators.base.SlamEstimator` (thin wrapper of the
     pure functions; a test checks they agree).
 
     The filter starts at ``x0`` (default the origin) with covariance ``P0`` (default zero:
     the world frame is the initial pose, thesis §5.6.1). A rejected input raises
-    ``ValueError`` before anything is changed.
+    ``ValueError`` before anything is changed. ``preset="consistent"`` (or ``"reference"``)
+    starts from one of :data:`AEKF_PRESETS`; keyword parameters override it.
     """
 
     name = "aekf"
@@ -759,6 +774,15 @@ class AEKFSlam:
         # rng / seed are accepted and ignored (the filter is deterministic) so that the
         # factory can pass the same keywords to every estimator.
         del rng, seed
+        preset = params.pop("preset", None)
+        if preset is not None:
+            if config is not None:
+                raise ValueError("pass either config or preset, got both")
+            if preset not in AEKF_PRESETS:
+                raise ValueError(
+                    f"preset must be one of {', '.join(AEKF_PRESETS)}, got {preset!r}"
+                )
+            params = {**AEKF_PRESETS[preset], **params}
         if config is None:
             config = AEKFConfig(**params)
         elif params:

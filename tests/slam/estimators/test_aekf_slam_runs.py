@@ -102,20 +102,44 @@ def test_fej_known_association_nis_is_chi_square_2(two_loop_run):
 
 def test_dense_loop_reference_parameters_accuracy_and_3sigma():
     """Reference parameters (dt 0.0125 as the thesis, two loops as Bailey), gated ML
-    association (gates 4, 25) with the unambiguous rule, first-estimates Jacobians:
-    landmark RMSE below 2 m in every run, no duplicated landmark, and >= 95 % of
-    landmarks inside their 3σ ellipse (pooled).
+    association (gates 4, 25), the "consistent" preset (FEJ, unambiguous rule, iterated
+    loop-closure updates), 10 seeded runs (the CI variant of the 50-run table): median
+    landmark RMSE below 1 m, >= 95 % of landmarks inside their 3σ ellipse (pooled), no
+    duplicated landmark.
 
-    The issue's "RMSE < 1 m" holds for the median over 20 runs (0.84 m; thesis landmark
-    errors A 0.58 m, B 0.83 m vs the thesis's 0.723 and 1.921) but not in every run
-    (seeds 0-2 here: 1.13, 1.95, 1.12 m): the filter's own σ is of that size, and it is
-    consistent, so a per-run < 1 m bound would be asserting luck."""
+    Per run the RMSE exceeds 1 m in some runs (seeds 0-2 here: 1.13, 1.95, 1.12 m), and so
+    does the smoother's on the same data (see the next test): the bound is the information
+    in the data, not the filter."""
     spec = get_experiment("dense-loop", dt=0.0125)
-    params = {"jacobians": "fej", "unambiguous_gate": 25.0}
-    runs = [run_once(spec, "aekf", s, params) for s in (0, 1, 2)]
-    assert all(r.landmark_rmse < 2.0 for r in runs)
+    runs = [run_once(spec, "aekf", s, {"preset": "consistent"}) for s in range(10)]
+    assert np.median([r.landmark_rmse for r in runs]) < 1.0
     assert np.mean([r.frac_in_3sigma for r in runs]) >= 0.95
     assert all(r.n_duplicates == 0 for r in runs)
+
+
+@pytest.mark.parametrize("seed", [1, 5])
+def test_dense_loop_filter_is_as_accurate_as_the_smoother(seed):
+    """Second implementation: iSAM2 (GTSAM; the full-trajectory MAP smoother, known
+    association) on the same data. The filter's landmark RMSE is within 15 % of it: over 50
+    runs the ratio's median is 1.00 and its 90th percentile 1.22 (measured). Seed 1 is
+    the worst run of seeds 0-19 for both — 1.95 vs 1.86 m, above 1 m for the smoother too;
+    seed 5 is a loop closure correcting 7 m of drift, where the one-shot EKF update left
+    NEES 90 and a duplicated landmark (RMSE 1.69 m) and the iterated update matches the
+    smoother (0.51 vs 0.47 m)."""
+    pytest.importorskip("gtsam")
+    spec = get_experiment("dense-loop", dt=0.0125)
+    ss = np.random.SeedSequence(seed)
+    run = simulate_run(
+        spec.map.landmarks, spec.map.waypoints, spec.sim, np.random.default_rng(ss.spawn(2)[0])
+    )
+    filt = run_once(spec, "aekf", seed, {"preset": "consistent"}, sim_run=run)
+    smoother = run_once(spec, "isam2", seed, {"association": "known"}, sim_run=run)
+    assert filt.n_duplicates == 0
+    assert filt.landmark_rmse < 1.15 * smoother.landmark_rmse
+    if seed == 1:
+        assert smoother.landmark_rmse > 1.0  # the 1 m bound is beyond this run's data
+    one_shot = run_once(spec, "aekf", seed, {"preset": "consistent", "iterations": 1}, sim_run=run)
+    assert filt.landmark_rmse <= one_shot.landmark_rmse + 1e-9
 
 
 def test_standard_ekf_is_overconfident_where_fej_is_not(two_loop_run):
@@ -167,6 +191,26 @@ def test_fifty_run_average_nees_fej_known_association_dense_loop():
     lo, hi = mc.nees_bounds
     assert lo <= float(np.nanmean(mc.avg_nees)) <= hi
     assert mc.nees_frac_inside > 0.7
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dt", [0.025, 0.0125])
+def test_fifty_run_average_nees_consistent_preset_gated_association(dt):
+    """50 Monte Carlo runs of the full dense loop with gated ML association (no labels) and
+    the "consistent" preset: the time-mean of the average pose NEES lies inside the 95 %
+    bounds for n = 3, 50 runs ([2.36, 3.72]; measured 3.18 at dt 0.025, 2.80 at 0.0125),
+    the median landmark RMSE is below 1 m at the thesis's dt 0.0125 (measured 0.80 m), and
+    at most 2 of 50 runs duplicate a landmark (measured 1 and 2)."""
+    from slam.experiments import run_monte_carlo
+
+    spec = get_experiment("dense-loop", dt=dt)
+    mc = run_monte_carlo(spec, "aekf", runs=50, seed=0, estimator_params={"preset": "consistent"})
+    lo, hi = mc.nees_bounds
+    assert lo <= float(np.nanmean(mc.avg_nees)) <= hi
+    assert mc.nees_frac_inside > 0.8
+    assert sum(r.n_duplicates > 0 for r in mc.runs) <= 2
+    if dt == 0.0125:
+        assert np.median([r.landmark_rmse for r in mc.runs]) < 1.0
 
 
 def test_factory_isam2_without_gtsam_names_the_extra(monkeypatch):

@@ -511,3 +511,22 @@ def test_bad_iterations_rejected(bad):
     x, P = _random_state(np.random.default_rng(0))
     with pytest.raises(ValueError, match="iterations"):
         update(x, P, [[10.0, 0.1]], np.diag([0.01, 3e-4]), [0], iterations=bad)
+
+
+def test_iterated_update_with_first_estimates_keeps_the_fej_covariance(rng):
+    """With first-estimates Jacobians the iterated mean is still the MAP of the update, but
+    the covariance is the FEJ one: the Kalman covariance of H evaluated at ``x_lin``."""
+    x, P = _random_state(rng, n=2, spread=15.0)
+    P[:3, :3] += np.diag([4.0, 4.0, 0.01])
+    truth = x.copy()
+    truth[:2] += [2.5, -2.0]
+    idx = np.array([0, 1])
+    R = np.diag([0.01, 3e-4])
+    z = np.array([_h(truth, i) for i in idx])
+    x_lin = x.copy()
+    x_lin[3:] += rng.normal(0, 0.3, x.size - 3)  # landmarks' first estimates
+    x_it, P_it = update(x, P, z, R, idx, iterations=20, x_lin=x_lin)
+    np.testing.assert_allclose(x_it, _map_of_one_update(x, P, z, R, idx), atol=1e-6)
+    H = _dense_H(x_lin, idx)
+    K = P @ H.T @ np.linalg.inv(H @ P @ H.T + np.kron(np.eye(2), R))
+    np.testing.assert_allclose(P_it, (np.eye(x.size) - K @ H) @ P, atol=1e-9)
