@@ -27,7 +27,7 @@ def _dense_loop_times(runs: int, skip_fastslam: bool, skip_isam2: bool) -> dict:
     from slam.sim2d import simulate_run
 
     spec = get_experiment("dense-loop")
-    names = ["aekf", "aekf-fej"]
+    names = ["aekf", "aekf-fej", "aekf-consistent"]
     if not skip_fastslam:
         names.append("fastslam2")
     if not skip_isam2:
@@ -43,7 +43,10 @@ def _dense_loop_times(runs: int, skip_fastslam: bool, skip_isam2: bool) -> dict:
         sim_t.append(time.perf_counter() - t0)
         out["n_scans"] = run.n_scans
         for name in names:
-            est, params = ("aekf", {"jacobians": "fej"}) if name == "aekf-fej" else (name, {})
+            est, params = {
+                "aekf-fej": ("aekf", {"jacobians": "fej"}),
+                "aekf-consistent": ("aekf", {"preset": "consistent"}),
+            }.get(name, (name, {}))
             try:
                 res = run_once(spec, est, r, params, sim_run=run)
             except ImportError as exc:
