@@ -10,43 +10,60 @@ map starts. Every update costs O(m²) in the local map size m, independent of th
 map size. Frozen local maps are statistically independent: each starts with zero
 covariance and sees only its own odometry and observations.
 
-Map joining (Tardós et al. 2002, §5 "map joining"), :func:`join_local_maps`, builds the
-global stochastic map on demand:
+Map joining (Tardós et al. 2002, "map joining"), :func:`join_local_maps`, builds the global
+stochastic map on demand:
 
-1. *Joining*: the local maps are stacked into one state in the world frame, the base of
-   map k+1 being the vehicle pose that ends map k. Map k+1 enters by the first-order
-   composition ``x_v ⊕ x_v^{(k+1)}``, ``x_v ⊕ l^{(k+1)}`` with the Jacobians of both
-   arguments, like an AEKF augmentation: only the new row/column blocks are computed
-   (O(N m) per local map, N the joined state size). The result has the FULL joint
-   covariance, cross-map correlations through the chain of base poses included, plus the
-   current vehicle pose.
+1. *Joining*: local map k+1 enters the global map by the first-order composition
+   ``x_v ⊕ x_v^{(k+1)}``, ``x_v ⊕ l^{(k+1)}`` (``x_v`` the joined vehicle pose = its base)
+   with the Jacobians of both arguments, like an AEKF augmentation: only the new
+   row/column blocks are computed (O(N m) per local map, N the joined state size). The
+   result has the FULL joint covariance — cross-map correlations through the chain of
+   bases included — and the current vehicle pose.
 2. *Fusion*: a landmark mapped in several local maps (re-observed across a map boundary,
-   or revisited at a loop closure) is identified by the Mahalanobis test of the difference
-   of the two estimates, ``dᵀ C⁻¹ d < gate`` with ``C = P_ii + P_jj - P_ij - P_ji`` from
-   the joint covariance (χ² 2 dof; default 99.9 %), pairs chosen mutually best and the
-   batch accepted only if jointly compatible (else its best pair alone), or by the
-   observation labels (``fusion="known"``). The fusion is the exact constraint
-   ``x_i - x_j = 0`` applied as a Kalman update to the whole joined state (which corrects
-   the other landmarks and the vehicle too: a loop closure), then the newer duplicate is
-   removed (marginalized). Repeated until no compatible pair remains.
+   or revisited at a loop closure) is found by the Mahalanobis test of the difference of
+   the two estimates, ``dᵀ C⁻¹ d < gate``, ``C = P_ii + P_jj - P_ij - P_ji`` from the joint
+   covariance (χ² 2 dof, default 99.9 %), or by the observation labels (``fusion="known"``).
+   The maps are joined one at a time and each new map's landmarks are tested against the
+   already fused global map (pairs mutually most compatible, kept greedily while the batch
+   stays jointly compatible at the same probability), so a revisit is tested against a map
+   whose earlier loop closures are done, as a single-map filter would test it. Testing
+   against the unfused chain instead (whose heading uncertainty grows with every local
+   map) fused wrong pairs on the dense loop.
+3. The fusion is the exact constraint ``x_i = x_j`` — conditioning the independent local
+   maps on it. With one linearization at the unfused chain (a single Kalman update of the
+   joined map) a loop closure was badly inconsistent on the dense loop (labels known:
+   landmarks inside 3σ 3–50 %), because the closure moves the bases by metres and
+   degrees; so the constraints are solved by iterated (Gauss–Newton) Kalman updates in the
+   local states ``s`` (prior: the local maps, block-diagonal D), re-linearizing the whole
+   chain each iteration, and the covariance is ``G (D - D Hᵀ S⁻¹ H D) Gᵀ`` at the solution
+   (G the join Jacobian, H the constraints'). The newer duplicate is then removed
+   (marginalized).
 
 In a linear-Gaussian problem joining plus fusion reproduces the single full-map filter
-exactly (means and full covariance; tested against an independent Kalman filter). Cost of
-a join: O(N²) memory and time per fusion round (candidate pairs are scored in row blocks),
-O(N² p) for p fused pairs; it runs only when asked (:meth:`SubmapAEKFSlam.join`, and
-:meth:`SubmapAEKFSlam.landmarks`, which returns the joined map by default), never inside
-an update.
+exactly (means and full covariance; tested against an independent Kalman filter).
+
+Measured (this machine; tests and ``benchmarks/bench_submap.py``). Dense loop, 2 loops,
+"consistent" preset, local maps of 8 landmarks (10 local maps, 73 landmarks in the
+chain), seeds 0–19: joined map 0 duplicates in every run (chain: 43 per run), landmark
+RMSE median 1.28 m (single-map AEKF 1.14 m, unfused chain 4.47 m; per-run ratio joined /
+single median 1.09, worst 2.39), landmarks inside 3σ 93.7 % (single map 96.8 %). 5 km
+line, 996 landmarks, local maps of 100 (11 maps): 2,290 updates/s against 206 for the
+full AEKF (11× overall, 19× over the last 10 %); one join 0.7–1.2 s (state 1,995, 56
+duplicates fused); RMSE joined 42.7 m, unfused chain 86.4 m, full AEKF 127.9 m.
 
 Hand-written: map joining is the reference's named extension; no library in the
 project's dependencies implements it.
 
-What is still weak (stated, not hidden): the fused global map is not fed back into
-local mapping — the live local map keeps its own frame, so :meth:`SubmapAEKFSlam.pose`
-is the chain composition (no loop-closure correction of the running pose estimate; the
-corrected pose is :meth:`GlobalMap.pose` of the joined map); association is by individual
-gates with a joint check, not the full joint-compatibility branch and bound; and the
-conditionally independent variant (Piniés and Tardós 2008), which shares landmarks between
-consecutive local maps, is not implemented: consecutive local maps share no information.
+What is still weak (stated, not hidden): the fused global map is not fed back into local
+mapping — the live local map keeps its own frame, so :meth:`SubmapAEKFSlam.pose` is the
+chain composition, without the loop-closure correction (the corrected pose is
+:meth:`GlobalMap.pose` of the joined map), and the runner's ATE/NEES of this filter are
+those of the chain. Association is greedy (individual gate, mutual best, greedy joint
+compatibility), not joint-compatibility branch and bound; landmarks duplicated inside one
+local map are left to the local AEKF. A join re-solves all constraints found so far once
+per local map: O(K · (N² + N p)) for K local maps, not O(N²). The conditionally
+independent variant (Piniés and Tardós 2008), which passes shared landmarks from one local
+map to the next, is not implemented.
 """
 
 from __future__ import annotations
@@ -460,7 +477,7 @@ def _constrained_join(stack: _Stack, ki, kj, iterations: int = 30):
         step = s_new - s
         step[stack.heading] = (step[stack.heading] + math.pi) % (2 * math.pi) - math.pi
         s = s_new
-        if float(np.max(np.abs(step))) < 1e-10:
+        if float(np.max(np.abs(step))) < 1e-9:
             iterations = it + 1  # one more pass: Jacobians at the solution
     X, P, U = _join_states(stack.split(s), tangent=DHt)
     U1 = np.linalg.solve(L, U.T).T  # G D Hᵀ L⁻ᵀ
@@ -498,17 +515,20 @@ def join_local_maps(
     maps : local maps in order; map 0's base is the world frame, map k+1's base is the
         vehicle pose ``maps[k].x[:3]`` (relative to map k's base). The maps are assumed
         statistically independent (each started with zero covariance).
-    fusion : "mahalanobis" (pairs from different local maps whose difference passes
-        ``gate``; each round fuses the mutually best pairs if they are jointly compatible
-        at the same probability, else the single best pair), "known" (equal labels >= 0),
-        or "none" (join only).
+    fusion : "mahalanobis" (the maps are joined one at a time; the new map's landmarks
+        whose difference to a landmark of the fused map so far passes ``gate``, mutually
+        most compatible, kept greedily while jointly compatible at the same probability;
+        repeated until none is left), "known" (equal labels >= 0 in different local maps,
+        all at once), or "none" (join only).
     gate : individual χ² 2-dof gate on ``dᵀ C⁻¹ d`` (default :data:`FUSION_GATE`, 99.9 %).
-    max_rounds : cap on the fusion rounds (None: until no compatible pair is left).
+    max_rounds : cap on the fusion rounds per joined local map (None: until no compatible
+        pair is left; ignored by "known", which fuses in one round).
     iterations : Gauss–Newton iterations of the fusion (1 = one EKF update of the joined
-        map; more re-linearize the chain of bases until the step is below 1e-10).
+        map; more re-linearize the chain of bases until the step is below 1e-9 m or rad;
+        Gauss–Newton converges linearly here, ~10 iterations per solve).
 
     Every round re-solves the fusion of all pairs accepted so far from the unfused local
-    maps (so the result does not depend on the order in which pairs were found).
+    maps (the solution depends on the set of pairs, not on the order they were found in).
 
     Returns the :class:`GlobalMap` (landmarks ordered by local map, then creation; fused
     duplicates removed).
