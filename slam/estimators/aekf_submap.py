@@ -83,6 +83,7 @@ __all__ = [
     "FUSION_GATE",
     "GlobalMap",
     "LocalMap",
+    "MapJoiner",
     "SubmapAEKFSlam",
     "compose_pose",
     "join_local_maps",
@@ -546,61 +547,129 @@ def join_local_maps(
         raise ValueError(f"max_rounds must be an integer >= 0 or None, got {max_rounds!r}")
     if not (isinstance(iterations, int) and iterations >= 1):
         raise ValueError(f"iterations must be an integer >= 1, got {iterations!r}")
-    labels = np.concatenate([lm.labels for lm in maps])
-    ki = np.zeros(0, np.intp)  # accepted constraints (chain indices): kept landmark ...
-    kj = np.zeros(0, np.intp)  # ... and its removed duplicate (always the later one)
-    if fusion == "known":
-        stack = _Stack(maps)
-        ki, kj = _known_pairs(labels, stack.src)
-        labels[ki] = np.where(labels[ki] >= 0, labels[ki], labels[kj])
-        steps = []
-    else:
-        steps = list(range(1, len(maps))) if fusion == "mahalanobis" else []
-    prob = float(chi2.cdf(gate, 2))
-    # Mahalanobis: join the maps one at a time (Tardós et al.'s sequential map joining),
-    # fusing the new map's landmarks with the already fused global map: its duplicates are
-    # then tested against a map whose loop closures are already done, as a full filter
-    # would test them, not against the loose unfused chain.
-    if steps:
-        x, P = maps[0].x.copy(), maps[0].P.copy()
-    for k in steps:  # one step per local map (few)
-        stack = _Stack(maps[: k + 1])
-        src = stack.src
+    joiner = MapJoiner(
+        maps[0], fusion=fusion, gate=gate, max_rounds=max_rounds, iterations=iterations
+    )
+    for lm in maps[1:]:  # one step per local map (few)
+        joiner.add(lm)
+    return joiner.result()
+
+
+class MapJoiner:
+    """Sequential map joining (the state behind :func:`join_local_maps`): start from the
+    first local map, :meth:`add` the next ones in order, :meth:`result` gives the global
+    map. Keeps the joined state in chain order with the fused duplicates still present
+    (constrained equal to the landmark they were fused with) and the accepted constraints,
+    so adding a map costs one fusion solve, not a re-join of everything. :meth:`copy` for
+    a tentative step (the live local map)."""
+
+    def __init__(
+        self,
+        first: LocalMap,
+        *,
+        fusion: str = "mahalanobis",
+        gate: float = FUSION_GATE,
+        max_rounds: int | None = None,
+        iterations: int = 30,
+    ):
+        if not isinstance(first, LocalMap):
+            raise ValueError(f"maps[0] must be a LocalMap, got {type(first).__name__}")
+        if fusion not in _FUSIONS:
+            raise ValueError(f"fusion must be one of {', '.join(_FUSIONS)}, got {fusion!r}")
+        if not (isinstance(gate, int | float | np.floating) and math.isfinite(gate) and gate > 0):
+            raise ValueError(f"gate must be a finite χ² value > 0, got {gate!r}")
+        if max_rounds is not None and not (isinstance(max_rounds, int) and max_rounds >= 0):
+            raise ValueError(f"max_rounds must be an integer >= 0 or None, got {max_rounds!r}")
+        if not (isinstance(iterations, int) and iterations >= 1):
+            raise ValueError(f"iterations must be an integer >= 1, got {iterations!r}")
+        self.fusion, self.gate, self.max_rounds, self.iterations = (
+            fusion,
+            float(gate),
+            max_rounds,
+            iterations,
+        )
+        self.maps = [first]
+        self.x, self.P = first.x.copy(), first.P.copy()
+        self.labels = first.labels.copy()
+        self.ki = np.zeros(0, np.intp)  # accepted constraints (chain indices): kept landmark
+        self.kj = np.zeros(0, np.intp)  # ... and its removed duplicate (always the later one)
+
+    def copy(self) -> MapJoiner:
+        other = object.__new__(MapJoiner)
+        other.__dict__.update(self.__dict__)
+        other.maps = list(self.maps)
+        other.x, other.P, other.labels = self.x.copy(), self.P.copy(), self.labels.copy()
+        return other
+
+    @property
+    def n_maps(self) -> int:
+        return len(self.maps)
+
+    def add(self, lm: LocalMap) -> None:
+        """Join local map ``lm`` (based at the current joined vehicle pose) and fuse its
+        landmarks with the fused map so far. Mahalanobis: the new map's landmarks are
+        tested against the already fused global map, whose earlier loop closures are
+        done — as a single-map filter would test a revisit — not against the unfused
+        chain, whose heading uncertainty grows with every local map."""
+        if not isinstance(lm, LocalMap):
+            raise ValueError(f"maps[{len(self.maps)}] must be a LocalMap, got {type(lm).__name__}")
+        k = len(self.maps)
+        self.maps.append(lm)
         # the fused map so far is unchanged by appending the independent map k
-        N = x.size + 2 * maps[k].n_landmarks
-        x = np.concatenate([x, np.empty(N - x.size)])
-        P = np.pad(P, (0, N - P.shape[0]))
-        _append_map(x, P, N - 2 * maps[k].n_landmarks, maps[k])
+        m = lm.n_landmarks
+        N = self.x.size + 2 * m
+        self.x = np.concatenate([self.x, np.empty(2 * m)])
+        self.P = np.pad(self.P, (0, 2 * m))
+        _append_map(self.x, self.P, N - 2 * m, lm, None, None)
+        self.labels = np.concatenate([self.labels, lm.labels])
+        if self.fusion == "none" or m == 0:
+            return
+        stack = _Stack(self.maps)
+        src = stack.src
+        if self.fusion == "known":
+            i, j = _known_pairs(self.labels, src)
+            i, j = i[src[j] == k], j[src[j] == k]
+            if i.size:
+                self._accept(stack, i, j)
+            return
+        prob = float(chi2.cdf(self.gate, 2))
         rounds = 0
-        while max_rounds is None or rounds < max_rounds:
+        while self.max_rounds is None or rounds < self.max_rounds:
             rounds += 1
             keep = np.ones(src.size, dtype=bool)
-            keep[kj] = False
+            keep[self.kj] = False
             alive = np.flatnonzero(keep)  # chain index of each landmark of the reduced map
-            xr, Pr = remove_landmarks(x, P, kj)
+            xr, Pr = remove_landmarks(self.x, self.P, self.kj)
             old = np.flatnonzero(src[alive] < k)
             new = np.flatnonzero(src[alive] == k)
             if old.size == 0 or new.size == 0:
                 break
-            i, j, d2 = _candidate_pairs(xr, Pr, old, new, gate)
+            i, j, d2 = _candidate_pairs(xr, Pr, old, new, self.gate)
             if i.size == 0:
                 break
             i, j, d2 = _mutual_best(i, j, d2, alive.size)
             i, j = _jointly_compatible(xr, Pr, i, j, d2, prob)
-            i, j = alive[i], alive[j]
-            labels[i] = np.where(labels[i] >= 0, labels[i], labels[j])
-            ki, kj = np.concatenate([ki, i]), np.concatenate([kj, j])
-            x, P = _constrained_join(stack, ki, kj, iterations)
-    stack = _Stack(maps)
-    if not steps:
-        x, P = _constrained_join(stack, ki, kj, iterations) if ki.size else _join_states(maps)
-    keep = np.ones(stack.src.size, dtype=bool)
-    keep[kj] = False
-    alive = np.flatnonzero(keep)
-    xr, Pr = remove_landmarks(x, P, kj)
-    return GlobalMap(
-        x=xr, P=Pr, labels=labels[alive], submap=stack.src[alive], n_fused=int(kj.size)
-    )
+            self._accept(stack, alive[i], alive[j])
+
+    def _accept(self, stack: _Stack, i, j) -> None:
+        self.labels[i] = np.where(self.labels[i] >= 0, self.labels[i], self.labels[j])
+        self.ki = np.concatenate([self.ki, i])
+        self.kj = np.concatenate([self.kj, j])
+        self.x, self.P = _constrained_join(stack, self.ki, self.kj, self.iterations)
+
+    def result(self) -> GlobalMap:
+        """The global map: fused duplicates removed (marginalized)."""
+        src = np.repeat(np.arange(len(self.maps)), [lm.n_landmarks for lm in self.maps])
+        keep = np.ones(src.size, dtype=bool)
+        keep[self.kj] = False
+        x, P = remove_landmarks(self.x, self.P, self.kj)
+        return GlobalMap(
+            x=x,
+            P=0.5 * (P + P.T),
+            labels=self.labels[keep],
+            submap=src[keep],
+            n_fused=int(self.kj.size),
+        )
 
 
 # --------------------------------------------------------------------------- the filter
@@ -616,9 +685,15 @@ class SubmapAEKFSlam:
     :data:`FUSION_GATE`); ``output`` what :meth:`landmarks` and :attr:`labels` give:
     "joined" (default; the fused global map, computed by :meth:`join` and cached until the
     next predict/update) or "chain" (each local map's landmarks composed with its origin,
-    marginal covariances only, no fusion: the cheap O(n) view); ``x0``/``P0`` the global
-    start pose; ``preset`` and everything else go to :class:`AEKFConfig` of each local map.
-    Implements :class:`slam.estimators.base.SlamEstimator` with world-frame outputs.
+    marginal covariances only, no fusion: the cheap O(n) view); ``join_at_switch``: when a
+    local map is frozen, join it into the global map at once (one fusion solve, O(N²) at
+    that update only) and base the running pose on the fused global vehicle pose, so
+    :meth:`pose` gets the loop-closure corrections (default False: every update stays
+    O(m²) and :meth:`pose` is the chain composition). Frozen maps are joined incrementally
+    (:class:`MapJoiner`) and kept, so :meth:`join` adds only the maps frozen since the last
+    call plus the live one. ``x0``/``P0`` the global start pose; ``preset`` and everything
+    else go to :class:`AEKFConfig` of each local map. Implements
+    :class:`slam.estimators.base.SlamEstimator` with world-frame outputs.
     """
 
     name = "aekf-submap"
@@ -630,6 +705,7 @@ class SubmapAEKFSlam:
         fusion: str | None = None,
         fusion_gate: float = FUSION_GATE,
         output: str = "joined",
+        join_at_switch: bool = False,
         x0=None,
         P0=None,
         rng=None,
@@ -656,9 +732,14 @@ class SubmapAEKFSlam:
             raise ValueError(f"fusion_gate must be a finite number > 0, got {fusion_gate!r}")
         if output not in ("joined", "chain"):
             raise ValueError(f"output must be 'joined' or 'chain', got {output!r}")
+        if not isinstance(join_at_switch, bool | np.bool_):
+            raise ValueError(f"join_at_switch must be True or False, got {join_at_switch!r}")
         self.fusion = fusion
         self.fusion_gate = float(fusion_gate)
         self.output = output
+        self.join_at_switch = bool(join_at_switch)
+        self._joiner: MapJoiner | None = None  # the frozen maps joined so far
+        self._base: tuple[np.ndarray, np.ndarray] | None = None  # fused base of the live map
         start = AEKFSlam(self.config, x0=x0, P0=P0)  # validates x0, P0
         self.origin = np.zeros(3)
         self.P_origin = np.zeros((3, 3))
@@ -703,6 +784,17 @@ class SubmapAEKFSlam:
         self.origin, self.P_origin = compose_pose(self.origin, self.P_origin, xv, Pv)
         self._offset += self.local.n_landmarks
         self.local = AEKFSlam(self.config)
+        if self.join_at_switch:
+            j = self._frozen_joiner()
+            self._base = (j.x[:3].copy(), j.P[:3, :3].copy())
+
+    def _frozen_joiner(self) -> MapJoiner:
+        """The incremental join of all frozen maps (brought up to date)."""
+        if self._joiner is None:
+            self._joiner = MapJoiner(self.frozen[0], fusion=self.fusion, gate=self.fusion_gate)
+        for lm in self.frozen[self._joiner.n_maps :]:  # the maps frozen since the last join
+            self._joiner.add(lm)
+        return self._joiner
 
     def local_maps(self) -> list[LocalMap]:
         """The frozen local maps and a snapshot of the live one, in order."""
@@ -715,22 +807,29 @@ class SubmapAEKFSlam:
         defaults (the filter's ``fusion`` and ``fusion_gate``) are cached until the next
         predict/update."""
         default = fusion is None and gate is None
-        if default and self._cache is not None:
-            return self._cache
-        gm = join_local_maps(
-            self.local_maps(),
-            fusion=self.fusion if fusion is None else fusion,
-            gate=self.fusion_gate if gate is None else gate,
-        )
-        if default:
-            self._cache = gm
-        return gm
+        if not default:
+            return join_local_maps(
+                self.local_maps(),
+                fusion=self.fusion if fusion is None else fusion,
+                gate=self.fusion_gate if gate is None else gate,
+            )
+        if self._cache is None:
+            live = self.local_maps()[-1]
+            if not self.frozen:
+                self._cache = MapJoiner(live, fusion=self.fusion, gate=self.fusion_gate).result()
+            else:
+                j = self._frozen_joiner().copy()
+                j.add(live)
+                self._cache = j.result()
+        return self._cache
 
     def pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """Chain composition ``origin ⊕ local pose`` (O(1); not corrected by fusion — see
-        :meth:`GlobalMap.pose` for the joined estimate)."""
+        """``base ⊕ local pose`` (O(1)): the base is the chain origin, or with
+        ``join_at_switch`` the fused global vehicle pose at the last switch (corrected by
+        the fusions up to then; :meth:`GlobalMap.pose` is the fully joined estimate)."""
         xv, Pv = self.local.pose()
-        return compose_pose(self.origin, self.P_origin, xv, Pv)
+        o, Po = self._base if self._base is not None else (self.origin, self.P_origin)
+        return compose_pose(o, Po, xv, Pv)
 
     def landmarks(self) -> tuple[np.ndarray, np.ndarray]:
         """World-frame landmarks with marginal covariances: the joined, fused map

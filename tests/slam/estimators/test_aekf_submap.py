@@ -257,6 +257,45 @@ def test_small_submaps_bound_the_local_state_and_joined_marginals_match_chain(ru
     assert np.mean(d2 <= 9.0) >= 0.9
 
 
+def test_incremental_join_of_the_filter_equals_joining_from_scratch(run):
+    """The filter joins frozen maps incrementally (MapJoiner, cached) and adds the live map
+    to a copy; the same local maps joined from scratch give the same global map. With
+    ``join_at_switch`` the landmarks are the same and the running pose is the fused base
+    (the joined vehicle at the last switch) ⊕ the live local pose."""
+    f = SubmapAEKFSlam(max_landmarks=8, jacobians="fej")
+    g = SubmapAEKFSlam(max_landmarks=8, jacobians="fej", join_at_switch=True)
+    for i in range(run.n_scans):
+        for e in (f, g):
+            e.predict(run.odometry(i))
+            e.update(run.observations(i))
+        if i == run.n_scans // 2:
+            f.join()  # a join half way: the cache must follow the later maps
+    a = f.join()
+    b = join_local_maps(f.local_maps())
+    np.testing.assert_allclose(a.x, b.x, atol=1e-9)
+    np.testing.assert_allclose(a.P, b.P, atol=1e-9)
+    np.testing.assert_array_equal(a.labels, b.labels)
+    np.testing.assert_allclose(g.landmarks()[0], f.landmarks()[0], atol=1e-9)
+    base = join_local_maps(g.frozen)
+    xp, Pp = compose_pose(base.x[:3], base.P[:3, :3], *g.local.pose())
+    np.testing.assert_allclose(g.pose()[0], xp, atol=1e-9)
+    np.testing.assert_allclose(g.pose()[1], Pp, atol=1e-12)
+    assert not np.allclose(f.pose()[0], g.pose()[0], atol=1e-3)  # fusion moved the base
+
+
+def test_join_at_switch_corrects_the_running_pose_on_the_dense_loop():
+    """Chain pose vs fused base on the dense loop (seed 0, local maps of 8): the running
+    pose with ``join_at_switch`` gets the loop closures, so its trajectory error is
+    smaller (measured seeds 0–9: ATE median 3.8 m against 6.4 m for the chain; single map
+    3.4 m); the landmark map is the same."""
+    spec = get_experiment("dense-loop")
+    p = {"preset": "consistent", "max_landmarks": 8}
+    chain = run_once(spec, "aekf-submap", 0, p)
+    fused = run_once(spec, "aekf-submap", 0, {**p, "join_at_switch": True})
+    assert fused.ate < 0.5 * chain.ate
+    np.testing.assert_allclose(fused.lm_est, chain.lm_est, atol=1e-9)
+
+
 # --------------------------------------------------------------------------- dense loop
 
 
@@ -340,3 +379,5 @@ def test_bad_input_is_rejected_with_the_field_named():
         SubmapAEKFSlam(fusion_gate=0.0)
     with pytest.raises(ValueError, match="preset"):
         SubmapAEKFSlam(preset="fast")
+    with pytest.raises(ValueError, match="join_at_switch"):
+        SubmapAEKFSlam(join_at_switch="yes")
