@@ -6,7 +6,9 @@ simulated once. Side by side in one run: the sub-mapping AEKF (local maps of ``-
 landmarks) and the full single-map AEKF (``--skip-full`` to leave it out), both with
 first-estimates Jacobians; per-update wall time (mean over all scans and over the last
 10 %), the time of one map join with fusion of the landmarks shared across local maps,
-and the landmark RMSE of the joined map, of the unfused chain and of the full AEKF.
+and the landmark RMSE of the joined map, of the unfused chain and of the full AEKF; also
+the sub-maps with ``join_at_switch`` (each frozen map joined at once: the slowest update
+pays a fusion solve, the final join only the live map).
 
     python benchmarks/bench_submap.py [--json] [--length 5000] [--spacing 5] [--size 100]
 """
@@ -47,6 +49,7 @@ def _rates(times: np.ndarray) -> dict:
         "total_s": float(times.sum()),
         "updates_per_s": float(1.0 / times.mean()),
         "last10pct_updates_per_s": float(1.0 / tail.mean()),
+        "max_update_ms": float(1e3 * times.max()),
     }
 
 
@@ -83,6 +86,12 @@ def measure(length_m: float, spacing_m: float, size: int, full: bool) -> dict:
     sub["joined"] = quality(*gm.landmarks(), gm.labels)
     sub["chain"] = quality(*f.chain_landmarks(), f.chain_labels)
     out["submap"] = sub
+    # join_at_switch: each frozen map joined at once (O(N²) at the switching update)
+    h = SubmapAEKFSlam(max_landmarks=size, jacobians="fej", join_at_switch=True)
+    out["submap_join_at_switch"] = _rates(_drive(h, run))
+    t0 = time.perf_counter()
+    h.join()
+    out["submap_join_at_switch"]["join_s"] = time.perf_counter() - t0
     if full:
         g = AEKFSlam(jacobians="fej")
         out["full"] = _rates(_drive(g, run))
@@ -123,13 +132,19 @@ def main(argv=None) -> int:
     )
     print(
         f"  sub-maps ({s['n_submaps']} of <= {s['max_landmarks']}): {s['updates_per_s']:.0f} "
-        f"updates/s ({s['last10pct_updates_per_s']:.0f} over the last 10 %), {s['total_s']:.2f} s"
+        f"updates/s ({s['last10pct_updates_per_s']:.0f} over the last 10 %), {s['total_s']:.2f} s, "
+        f"slowest update {s['max_update_ms']:.1f} ms"
+    )
+    w = r["submap_join_at_switch"]
+    print(
+        f"  sub-maps, join at every switch: {w['updates_per_s']:.0f} updates/s, {w['total_s']:.2f} s, "
+        f"slowest update {w['max_update_ms']:.1f} ms; final join then {w['join_s']:.3f} s"
     )
     if "full" in r:
         f = r["full"]
         print(
             f"  full AEKF: {f['updates_per_s']:.0f} updates/s ({f['last10pct_updates_per_s']:.0f} "
-            f"over the last 10 %), {f['total_s']:.2f} s; sub-maps / full = "
+            f"over the last 10 %), {f['total_s']:.2f} s, slowest {f['max_update_ms']:.1f} ms; sub-maps / full = "
             f"{r['ratio_updates_submap_over_full']:.1f}x ({r['ratio_last10pct_submap_over_full']:.1f}x "
             "over the last 10 %)"
         )
