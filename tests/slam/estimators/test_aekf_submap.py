@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from slam.estimators import make_estimator
 from slam.estimators.aekf import AEKFSlam, predict
@@ -120,13 +122,7 @@ def _linear_problem(seed, n_steps=24, n_lm=14):
     return steps, Q2, Rz
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-@pytest.mark.parametrize("cuts", [(12,), (8, 16)])
-@pytest.mark.parametrize("fusion", ["known", "mahalanobis"])
-def test_linear_gaussian_join_equals_single_full_kalman_filter(seed, cuts, fusion):
-    """Linear-Gaussian case: local maps (split at ``cuts``) joined and fused equal the one
-    full-map Kalman filter over all the data — means and the FULL covariance (exact:
-    conditioning independent local maps on ``x_i = x_j`` is the full posterior)."""
+def _split_and_join(seed, cuts, fusion):
     steps, Q2, Rz = _linear_problem(seed)
     full = _LinearKF()
     locs = [_LinearKF()]
@@ -136,13 +132,39 @@ def test_linear_gaussian_join_equals_single_full_kalman_filter(seed, cuts, fusio
         for f in (full, locs[-1]):
             f.predict(u, Q2)
             f.observe(ids, z, Rz)
-    maps = [LocalMap(f.x, f.P, np.array(f.ids)) for f in locs]
-    assert sum(m.n_landmarks for m in maps) > len(full.ids)  # there are duplicates to fuse
-    gm = join_local_maps(maps, fusion=fusion)
+    maps = [LocalMap(f.x, f.P, np.array(f.ids, dtype=np.int64)) for f in locs]
+    return maps, full, join_local_maps(maps, fusion=fusion)
+
+
+def _assert_equals_full_filter(maps, full, gm):
     assert gm.n_fused == sum(m.n_landmarks for m in maps) - len(full.ids)
     np.testing.assert_array_equal(gm.labels, full.ids)
     np.testing.assert_allclose(gm.x, full.x, atol=1e-9)
     np.testing.assert_allclose(gm.P, full.P, atol=1e-10 * np.abs(full.P).max())
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("cuts", [(12,), (8, 16)])
+def test_linear_gaussian_join_equals_single_full_kalman_filter(seed, cuts):
+    """Linear-Gaussian case: local maps (split at ``cuts``) joined and fused by the
+    Mahalanobis test equal the one full-map Kalman filter over all the data — means and
+    the FULL covariance (exact: conditioning independent local maps on ``x_i = x_j`` is
+    the full posterior)."""
+    maps, full, gm = _split_and_join(seed, cuts, "mahalanobis")
+    assert sum(m.n_landmarks for m in maps) > len(full.ids)  # there are duplicates to fuse
+    _assert_equals_full_filter(maps, full, gm)
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    cuts=st.lists(st.integers(1, 23), min_size=1, max_size=4, unique=True),
+)
+def test_linear_gaussian_join_with_labels_equals_full_filter_for_any_split(seed, cuts):
+    """The same with label association, for random problems and any split into 2–5 local
+    maps (a local map may hold a single step)."""
+    maps, full, gm = _split_and_join(seed, tuple(cuts), "known")
+    _assert_equals_full_filter(maps, full, gm)
 
 
 def test_linear_gaussian_join_without_fusion_keeps_every_duplicate():
