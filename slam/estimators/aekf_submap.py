@@ -373,8 +373,7 @@ def _joint_nis(x, P, i, j) -> float:
     """``yᵀ S⁻¹ y`` of the stacked differences ``x_i - x_j`` (joint compatibility)."""
     a = (3 + 2 * i[:, None] + np.arange(2)).reshape(-1)
     b = (3 + 2 * j[:, None] + np.arange(2)).reshape(-1)
-    PHt = P[:, a] - P[:, b]
-    S = PHt[a] - PHt[b]
+    S = P[np.ix_(a, a)] - P[np.ix_(a, b)] - P[np.ix_(b, a)] + P[np.ix_(b, b)]  # O(p²)
     y = x[a] - x[b]
     return float(y @ np.linalg.lstsq(0.5 * (S + S.T), y, rcond=1e-12)[0])
 
@@ -530,9 +529,10 @@ def join_local_maps(
     gate : individual χ² 2-dof gate on ``dᵀ C⁻¹ d`` (default :data:`FUSION_GATE`, 99.9 %).
     max_rounds : cap on the fusion rounds per joined local map (None: until no compatible
         pair is left; ignored by "known", which fuses in one round).
-    iterations : Gauss–Newton iterations of the fusion (1 = one EKF update of the joined
-        map; more re-linearize the chain of bases until the step is below 1e-9 m or rad;
-        Gauss–Newton converges linearly here, ~10 iterations per solve).
+    iterations : cap on the Gauss–Newton iterations of each fusion solve (1 = a single
+        Kalman update linearized at the unfused chain; more re-linearize the chain of
+        bases until the step is below 1e-9 m or rad — linear convergence here, ~10–15
+        iterations). The covariance takes the Jacobians at the final estimate.
 
     Every round re-solves the fusion of all pairs accepted so far from the unfused local
     maps (the solution depends on the set of pairs, not on the order they were found in).
