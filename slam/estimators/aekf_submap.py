@@ -48,11 +48,13 @@ chain), seeds 0–19: joined map 0 duplicates in every run (chain: 43 per run), 
 RMSE median 1.28 m (single-map AEKF 1.14 m, unfused chain 4.47 m; per-run ratio joined /
 single median 1.09, worst 2.39), landmarks inside 3σ 93.7 % (single map 96.8 %); seeds
 0–9: ATE median 6.4 m with the chain pose, 3.8 m with ``join_at_switch`` (single map
-3.4 m). 5 km line, 996 landmarks, local maps of 100 (11 maps), one run side by side:
-2,285 updates/s against 437 for the full AEKF (5.2× overall, 12.6× over the last 10 %);
-with ``join_at_switch`` 1,755 updates/s, slowest update 226 ms (a switch); one join from
-scratch 0.7–1.2 s (state 1,995, 56 duplicates fused); RMSE joined 42.7 m, unfused chain
-86.4 m, full AEKF 127.9 m (67 % inside 3σ, against 100 % joined).
+3.4 m). 5 km line, 996 landmarks, local maps of 100 (11 maps), side by side in one run
+(two runs on the shared, loaded 2-core machine): 2,285–3,519 updates/s against 437–771
+for the full AEKF (4.6–5.2× overall, 8.7–12.6× over the last 10 %); with
+``join_at_switch`` 1,755–1,991 updates/s, slowest update 140–226 ms (a switch); one join
+from scratch 0.7–1.1 s (state 1,995, 56 duplicates fused; dense loop ~0.1 s, 16 ms with
+the frozen maps already joined); RMSE joined 42.7 m, unfused chain 86.4 m, full AEKF
+127.9 m (67 % inside 3σ, against 100 % joined).
 
 Hand-written: map joining is the reference's named extension; no library in the
 project's dependencies implements it.
