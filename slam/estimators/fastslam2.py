@@ -191,6 +191,8 @@ class FastSLAM2Config:
     map_estimate: str = "best"
     association: str = "ml"
     initial_capacity: int = 32
+    resample_min_log_spread: float | None = None
+    loop_drift_rate: float = 0.02
 
     def __post_init__(self) -> None:
         if not (isinstance(self.n_particles, int | np.integer) and self.n_particles >= 1):
@@ -224,6 +226,17 @@ class FastSLAM2Config:
         if self.association not in ("ml", "known", "auto"):
             raise ValueError(
                 f"association must be 'ml', 'known' or 'auto', got {self.association!r}"
+            )
+        if not (np.isfinite(self.loop_drift_rate) and self.loop_drift_rate >= 0.0):
+            raise ValueError(
+                f"loop_drift_rate must be finite and >= 0, got {self.loop_drift_rate!r}"
+            )
+        if self.resample_min_log_spread is not None and not (
+            np.isfinite(self.resample_min_log_spread) and self.resample_min_log_spread >= 0.0
+        ):
+            raise ValueError(
+                "resample_min_log_spread must be None or finite and >= 0, "
+                f"got {self.resample_min_log_spread!r}"
             )
         if not (isinstance(self.initial_capacity, int | np.integer) and self.initial_capacity >= 1):
             raise ValueError(
@@ -262,6 +275,8 @@ class FastSLAM2:
         map_estimate: str = "best",
         association: str = "ml",
         initial_capacity: int = 32,
+        resample_min_log_spread: float | None = None,
+        loop_drift_rate: float = 0.02,
         seed: int | None = None,
         x0=None,
         P0=None,
@@ -278,6 +293,8 @@ class FastSLAM2:
                 map_estimate=map_estimate,
                 association=association,
                 initial_capacity=initial_capacity,
+                resample_min_log_spread=resample_min_log_spread,
+                loop_drift_rate=loop_drift_rate,
             )
         self.config = config
         if rng is None:
@@ -301,6 +318,10 @@ class FastSLAM2:
         self._P = np.zeros((n, cap, 2, 2))
         self._exists = np.zeros((n, cap), dtype=bool)
         self._count = np.zeros(n, dtype=np.intp)
+        self._seen = np.zeros((n, cap))  # path length (m) at which each landmark was mapped
+        self._anchor = np.zeros(n)  # mapping path length of the landmark last updated
+        self._last_obs = np.zeros(n)  # path length (m) of the particle's last update
+        self._path = 0.0  # path length travelled (m), from the odometry increments
         self._slot_label = np.full(cap, -1, dtype=np.int64)
         self._label_slot: dict[int, int] = {}
         self.n_resamples = 0
@@ -364,6 +385,7 @@ class FastSLAM2:
         xv[:, 2] = _wrap(phi + dphi)
         self._Pv = _sym(_quad(Gv, self._Pv) + _quad(Gu, Q))
         self._xv = xv
+        self._path += float(np.hypot(dx, dy))
 
     # ------------------------------------------------------------------ update
     def _validate_observations(self, observations) -> tuple[np.ndarray, np.ndarray, list]:
@@ -402,6 +424,9 @@ class FastSLAM2:
         m = np.zeros((n, new_cap, 2))
         P = np.zeros((n, new_cap, 2, 2))
         e = np.zeros((n, new_cap), dtype=bool)
+        seen = np.zeros((n, new_cap))
+        seen[:, :cap] = self._seen
+        self._seen = seen
         lab = np.full(new_cap, -1, dtype=np.int64)
         m[:, :cap], P[:, :cap], e[:, :cap], lab[:cap] = (
             self._m,
@@ -439,14 +464,18 @@ class FastSLAM2:
 
         # Working copies: the state is committed only at the end.
         xv, Pv, logw = self._xv.copy(), self._Pv.copy(), self._logw.copy()
+        seen_at = None
+        anchor, last_obs = self._anchor.copy(), self._last_obs.copy()
         self._ensure_capacity(base + n_known_new + k)  # capacity growth alone is harmless
         m, P, exists = self._m.copy(), self._P.copy(), self._exists.copy()
+        seen_at = self._seen.copy()
         count = self._count.copy()
 
         # ---------------------------------------------------------- association
         assoc = np.full((n, k), _REJECT, dtype=np.intp)
         nis = np.full((n, k), np.nan)
         loglik = np.zeros((n, k))
+        drift = np.zeros((n, k))  # loop-closure variance (m^2) added to an associated landmark
         unknown = np.array([lab is None for lab in labels])
         j_unk = np.nonzero(unknown)[0]
         j_kn = np.nonzero(~unknown)[0]
@@ -487,7 +516,12 @@ class FastSLAM2:
                 # landmarks of a map are far from a given observation).
                 inv_d2 = 1.0 / np.maximum(zhat[..., 0] ** 2, 1e-12)  # (n, used)
                 trPv = np.trace(Pv, axis1=1, axis2=2)[:, None]
-                trPf = P[:, :used, 0, 0] + P[:, :used, 1, 1]
+                # Loop-closure allowance: a landmark last updated ``d`` metres of path ago
+                # is, relative to the particle's drifted pose, uncertain by about
+                # ``loop_drift_rate * d`` (the drift a finite particle set cannot hold).
+                gap = np.abs(seen_at[:, :used] - anchor[:, None]) + (self._path - last_obs)[:, None]
+                dvar = (cfg.loop_drift_rate * gap) ** 2
+                trPf = P[:, :used, 0, 0] + P[:, :used, 1, 1] + 2.0 * dvar
                 tr_bound = trPv * (2.0 + inv_d2) + trPf * (1.0 + inv_d2)  # (n, used)
                 tr_bound = tr_bound[:, None] + np.trace(R[j_unk], axis1=1, axis2=2)[None, :, None]
                 lower = np.einsum("...i,...i->...", v, v) / tr_bound  # (n, ku, used)
@@ -495,7 +529,8 @@ class FastSLAM2:
                 d2 = np.full((n, ku, used), np.inf)
                 ll = np.full((n, ku, used), -np.inf)
                 if pi.size:
-                    S = _quad(Hv[pi, pl], Pv[pi]) + _quad(Hf[pi, pl], P[pi, pl]) + R[j_unk][pq]
+                    Pf = P[pi, pl] + dvar[pi, pl][:, None, None] * np.eye(2)
+                    S = _quad(Hv[pi, pl], Pv[pi]) + _quad(Hf[pi, pl], Pf) + R[j_unk][pq]
                     Si, det = _inv2(S)
                     vv = v[pi, pq, pl]
                     dd = np.einsum("...i,...ij,...j->...", vv, Si, vv)
@@ -522,6 +557,8 @@ class FastSLAM2:
                 assoc[:, j_unk] = a
                 nis[:, j_unk] = np.where(matched, best_d2, np.nan)
                 loglik[:, j_unk] = np.where(matched, best_ll, p0[None, :])
+                bd = np.take_along_axis(dvar, np.where(matched, best, 0), axis=1)
+                drift[:, j_unk] = np.where(matched, bd, 0.0)
             else:
                 assoc[:, j_unk] = _NEW
                 loglik[:, j_unk] = p0[None, :]
@@ -533,13 +570,17 @@ class FastSLAM2:
         valid = assoc >= 0
         logw = logw + np.where(valid, 0.0, loglik).sum(axis=1)
         if valid.any():
-            logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid)
+            logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid, drift)
         logw -= logw.max()  # keep in range; the normalization is implicit
         w, _ = normalize_log_weights(logw)
-        if 1.0 / np.sum(w * w) < cfg.resample_threshold * n:
+        decisive = cfg.resample_min_log_spread is None or (
+            logw.max() - np.median(logw) > cfg.resample_min_log_spread
+        )
+        if decisive and 1.0 / np.sum(w * w) < cfg.resample_threshold * n:
             idx = self._resample(w, self.rng)
             xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
-            assoc, nis = assoc[idx], nis[idx]
+            assoc, nis, seen_at = assoc[idx], nis[idx], seen_at[idx]
+            anchor, last_obs = anchor[idx], last_obs[idx]
             logw = np.zeros(n)
             resampled = True
         else:
@@ -586,6 +627,11 @@ class FastSLAM2:
             m[pi, sl] = m[pi, sl] + np.einsum("sij,sj->si", K, v)
             IKH = np.eye(2) - K @ Hf  # Joseph form keeps the 2x2 covariances PSD
             P[pi, sl] = _sym(_quad(IKH, Pf) + _quad(K, R[pj]))
+            upd_anchor = np.full(n, -np.inf)
+            np.maximum.at(upd_anchor, pi, seen_at[pi, sl])
+            ok = np.isfinite(upd_anchor)
+            anchor[ok] = upd_anchor[ok]
+            last_obs[ok] = self._path
 
         # ---------------------------------------------------------- augmentation
         newmask = assoc == _NEW
@@ -608,6 +654,12 @@ class FastSLAM2:
             Gz[:, 1, 0], Gz[:, 1, 1] = s, r * c
             P[pi, slots] = _sym(_quad(Gz, R[pj]))
             exists[pi, slots] = True
+            seen_at[pi, slots] = self._path
+            has_old = np.zeros(n, dtype=bool)
+            has_old[np.nonzero(assoc >= 0)[0]] = True
+            no_old = np.unique(pi[~has_old[pi]])
+            anchor[no_old] = self._path  # only new landmarks: they anchor the particle now
+            last_obs[no_old] = self._path
             if n_known_new:
                 count = np.maximum(count, base + n_known_new)
             count = np.maximum(count, first_free + unk_new.sum(axis=1))
@@ -616,6 +668,8 @@ class FastSLAM2:
         # ---------------------------------------------------------- commit
         self._xv, self._Pv, self._logw = xv, Pv, logw
         self._m, self._P, self._exists, self._count = m, P, exists, count
+        self._seen = seen_at
+        self._anchor, self._last_obs = anchor, last_obs
         for lab in new_labels:
             self._slot_label[label_slot[lab]] = lab
         self._label_slot = label_slot
@@ -624,8 +678,9 @@ class FastSLAM2:
         return UpdateResult(associations=assoc[b].copy(), new=newmask[b].copy(), nis=nis[b].copy())
 
     @staticmethod
-    def _joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid) -> np.ndarray:
-        """(n,) log N(z_valid; zhat, S) per particle over its associated observations."""
+    def _joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid, drift=None) -> np.ndarray:
+        """(n,) log N(z_valid; zhat, S) per particle over its associated observations;
+        ``drift (n, k)`` adds ``drift * I`` (m^2) to the landmark covariance of a pair."""
         n, k = assoc.shape
         rows = np.arange(n)[:, None]
         sl = np.where(valid, assoc, 0)
@@ -634,7 +689,10 @@ class FastSLAM2:
         v[..., 1] = _wrap(v[..., 1])
         v = np.where(valid[..., None], v, 0.0)
         Hv = np.where(valid[..., None, None], Hv, 0.0)
-        Sf = np.where(valid[..., None, None], _quad(Hf, P[rows, sl]) + R[None], np.eye(2))
+        Pf = P[rows, sl]
+        if drift is not None:
+            Pf = Pf + drift[..., None, None] * np.eye(2)
+        Sf = np.where(valid[..., None, None], _quad(Hf, Pf) + R[None], np.eye(2))
         Hvj = Hv.reshape(n, 2 * k, 3)
         S = Hvj @ Pv @ np.swapaxes(Hvj, 1, 2)
         S4 = S.reshape(n, k, 2, k, 2)
