@@ -675,7 +675,10 @@ class AEKFConfig:
     reject_gate, augment_gate : Mahalanobis (NIS) gates of the association (Bailey's
         GATE_REJECT 4.0 and GATE_AUGMENT 25.0, which the reference used).
     association : "ml" (maximum likelihood, nis + ln det S), "nn" (nearest neighbour,
-        NIS), or "known" (observation labels give the landmark identity).
+        NIS), "known" (observation labels give the landmark identity), or "jcbb" (joint
+        compatibility branch and bound, :mod:`slam.estimators.jcbb`, at
+        ``jcbb_confidence``; unpaired observations beyond ``augment_gate`` of every
+        landmark start new ones, the rest are discarded).
     exclusive : at most one observation per landmark per scan.
     batch : batch update of all observations of a scan (Bailey's default) or sequential.
     joseph : Joseph-form covariance update instead of ``P - W1 W1ᵀ``.
@@ -718,6 +721,7 @@ class AEKFConfig:
     merge_every: int = 10
     iterations: int = 1
     relinearize_gate: float = 1.0
+    jcbb_confidence: float = 0.99
     blas_threads: int | None = 1
 
     def __post_init__(self) -> None:
@@ -728,8 +732,12 @@ class AEKFConfig:
                 f"augment_gate must be finite and >= reject_gate ({self.reject_gate}), "
                 f"got {self.augment_gate}"
             )
-        if self.association not in ("ml", "nn", "known"):
-            raise ValueError(f"association must be 'ml', 'nn' or 'known', got {self.association!r}")
+        if self.association not in ("ml", "nn", "known", "jcbb"):
+            raise ValueError(
+                f"association must be 'ml', 'nn', 'known' or 'jcbb', got {self.association!r}"
+            )
+        if not 0.0 < self.jcbb_confidence < 1.0:
+            raise ValueError(f"jcbb_confidence must be in (0, 1), got {self.jcbb_confidence!r}")
         if self.jacobians not in ("standard", "fej"):
             raise ValueError(f"jacobians must be 'standard' or 'fej', got {self.jacobians!r}")
         if not (isinstance(self.iterations, int) and self.iterations >= 1):
@@ -744,8 +752,9 @@ AEKF_PRESETS: dict[str, dict] = {
     # Bailey's toolbox as the reference ran it (the AEKFConfig defaults)
     "reference": {},
     # the most consistent combination measured (slam/experiments/README.md): first-estimates
-    # Jacobians, the unambiguous-association rule and iterated loop-closure updates
-    "consistent": {"jacobians": "fej", "unambiguous_gate": 25.0, "iterations": 10},
+    # Jacobians, joint-compatibility association with ambiguity rejection and iterated
+    # loop-closure updates
+    "consistent": {"jacobians": "fej", "association": "jcbb", "iterations": 10},
 }
 
 
@@ -779,9 +788,7 @@ class AEKFSlam:
             if config is not None:
                 raise ValueError("pass either config or preset, got both")
             if preset not in AEKF_PRESETS:
-                raise ValueError(
-                    f"preset must be one of {', '.join(AEKF_PRESETS)}, got {preset!r}"
-                )
+                raise ValueError(f"preset must be one of {', '.join(AEKF_PRESETS)}, got {preset!r}")
             params = {**AEKF_PRESETS[preset], **params}
         if config is None:
             config = AEKFConfig(**params)
@@ -858,7 +865,22 @@ class AEKFSlam:
             self._end_of_scan(np.zeros(0, dtype=np.intp), None)
             return UpdateResult(np.zeros(0, np.intp), np.zeros(0, bool), np.zeros(0))
         compatible = None  # landmarks some observation could be (NIS < augment gate)
-        if cfg.association == "known":
+        if cfg.association == "jcbb":
+            from slam.estimators.jcbb import jcbb
+
+            jc = jcbb(self.x, self.P, z, R, confidence=cfg.jcbb_confidence)
+            idx = jc.pairs
+            scores = jc.nis
+            new = (
+                (idx < 0)
+                & ~jc.ambiguous
+                & (np.all(scores > cfg.augment_gate, axis=1) if n else np.ones(k, dtype=bool))
+            )
+            nis = np.full(k, np.nan)
+            m = idx >= 0
+            nis[m] = scores[np.flatnonzero(m), idx[m]]
+            compatible = (scores < cfg.augment_gate).any(axis=0) if n else None
+        elif cfg.association == "known":
             idx, new = self._associate_known(labels)
             nis = np.full(k, np.nan)
             if np.any(idx >= 0):
