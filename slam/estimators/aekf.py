@@ -52,6 +52,7 @@ __all__ = [
     "associate",
     "augment",
     "compose_odometry",
+    "landmark_marginals",
     "observe",
     "predict",
     "remove_landmarks",
@@ -513,6 +514,15 @@ def remove_landmarks(x, P, idx):
     return x[keep], P[np.ix_(keep, keep)]
 
 
+def landmark_marginals(x, P) -> tuple[np.ndarray, np.ndarray]:
+    """Landmark means ``(n, 2)`` m and marginal covariances ``(n, 2, 2)`` m² of a
+    ``[pose, landmarks]`` state (copies)."""
+    n = (np.asarray(x).size - 3) // 2
+    ar = np.arange(n)
+    cov = np.asarray(P)[3:, 3:].reshape(n, 2, n, 2)[ar, :, ar, :].copy()
+    return np.asarray(x)[3:].reshape(n, 2).copy(), cov
+
+
 def association_scores(x, P, z, R, *, x_lin=None):
     """Normalized innovation squared and ML distance of every observation to every landmark.
 
@@ -938,10 +948,7 @@ class AEKFSlam:
         return self.x[:3].copy(), self.P[:3, :3].copy()
 
     def landmarks(self) -> tuple[np.ndarray, np.ndarray]:
-        n = self.n_landmarks
-        ar = np.arange(n)
-        cov = self.P[3:, 3:].reshape(n, 2, n, 2)[ar, :, ar, :].copy()
-        return self.x[3:].reshape(n, 2).copy(), cov
+        return landmark_marginals(self.x, self.P)
 
     # ---- extras
     @property

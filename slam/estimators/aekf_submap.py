@@ -83,7 +83,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import chi2
 
-from slam.estimators.aekf import AEKF_PRESETS, AEKFConfig, AEKFSlam, remove_landmarks
+from slam.estimators.aekf import (
+    AEKF_PRESETS,
+    AEKFConfig,
+    AEKFSlam,
+    landmark_marginals,
+    remove_landmarks,
+)
 from slam.estimators.base import UpdateResult
 from slam.types import Odometry, RangeBearing
 
@@ -216,10 +222,7 @@ class GlobalMap:
 
     def landmarks(self) -> tuple[np.ndarray, np.ndarray]:
         """``(means (n, 2) m, marginal covariances (n, 2, 2) m²)``."""
-        n = self.n_landmarks
-        ar = np.arange(n)
-        cov = self.P[3:, 3:].reshape(n, 2, n, 2)[ar, :, ar, :].copy()
-        return self.x[3:].reshape(n, 2).copy(), cov
+        return landmark_marginals(self.x, self.P)
 
 
 # --------------------------------------------------------------------------- joining
@@ -547,15 +550,7 @@ def join_local_maps(
     for k, lm in enumerate(maps):
         if not isinstance(lm, LocalMap):
             raise ValueError(f"maps[{k}] must be a LocalMap, got {type(lm).__name__}")
-    if fusion not in _FUSIONS:
-        raise ValueError(f"fusion must be one of {', '.join(_FUSIONS)}, got {fusion!r}")
-    if not (isinstance(gate, int | float | np.floating) and math.isfinite(gate) and gate > 0):
-        raise ValueError(f"gate must be a finite χ² value > 0, got {gate!r}")
-    if max_rounds is not None and not (isinstance(max_rounds, int) and max_rounds >= 0):
-        raise ValueError(f"max_rounds must be an integer >= 0 or None, got {max_rounds!r}")
-    if not (isinstance(iterations, int) and iterations >= 1):
-        raise ValueError(f"iterations must be an integer >= 1, got {iterations!r}")
-    joiner = MapJoiner(
+    joiner = MapJoiner(  # validates the options
         maps[0], fusion=fusion, gate=gate, max_rounds=max_rounds, iterations=iterations
     )
     for lm in maps[1:]:  # one step per local map (few)
