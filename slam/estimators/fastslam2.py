@@ -66,6 +66,7 @@ __all__ = ["FastSLAM2", "FastSLAM2Config", "observation_model", "validate_covari
 _LOG_2PI = float(np.log(2.0 * np.pi))
 _NEW = -2  # association code inside the filter: observation creates a new landmark
 _REJECT = -1
+_RECENT_M = 30.0  # path (m) within which updated landmarks anchor a particle (loop gate)
 
 
 # ---------------------------------------------------------------------------- helpers
@@ -155,6 +156,27 @@ def _quad(H: np.ndarray, P: np.ndarray) -> np.ndarray:
     return _mm(_mm(H, P), np.swapaxes(H, -1, -2))
 
 
+def _propagate(xv, Pv, dx, dy, dphi, Q):
+    """Odometry step (thesis eq. 5.21) of poses ``(n, 3)`` with covariances ``(n, 3, 3)``:
+    the mean moves by the body-frame increment, ``Pv <- Gv Pv Gv^T + Gu Q Gu^T``."""
+    phi = xv[:, 2]
+    c, s = np.cos(phi), np.sin(phi)
+    n = xv.shape[0]
+    Gv = np.zeros((n, 3, 3))
+    Gv[:, 0, 0] = Gv[:, 1, 1] = Gv[:, 2, 2] = 1.0
+    Gv[:, 0, 2] = -dx * s - dy * c
+    Gv[:, 1, 2] = dx * c - dy * s
+    Gu = np.zeros((n, 3, 3))
+    Gu[:, 0, 0], Gu[:, 0, 1] = c, -s
+    Gu[:, 1, 0], Gu[:, 1, 1] = s, c
+    Gu[:, 2, 2] = 1.0
+    out = xv.copy()
+    out[:, 0] += dx * c - dy * s
+    out[:, 1] += dx * s + dy * c
+    out[:, 2] = _wrap(phi + dphi)
+    return out, _sym(_quad(Gv, Pv) + _quad(Gu, Q))
+
+
 # ---------------------------------------------------------------------------- config
 @dataclass(frozen=True)
 class FastSLAM2Config:
@@ -192,7 +214,7 @@ class FastSLAM2Config:
     association: str = "ml"
     initial_capacity: int = 32
     resample_min_log_spread: float | None = None
-    loop_drift_rate: float = 0.02
+    loop_drift_100m: float = 0.7
 
     def __post_init__(self) -> None:
         if not (isinstance(self.n_particles, int | np.integer) and self.n_particles >= 1):
@@ -227,9 +249,9 @@ class FastSLAM2Config:
             raise ValueError(
                 f"association must be 'ml', 'known' or 'auto', got {self.association!r}"
             )
-        if not (np.isfinite(self.loop_drift_rate) and self.loop_drift_rate >= 0.0):
+        if not (np.isfinite(self.loop_drift_100m) and self.loop_drift_100m >= 0.0):
             raise ValueError(
-                f"loop_drift_rate must be finite and >= 0, got {self.loop_drift_rate!r}"
+                f"loop_drift_100m must be finite and >= 0, got {self.loop_drift_100m!r}"
             )
         if self.resample_min_log_spread is not None and not (
             np.isfinite(self.resample_min_log_spread) and self.resample_min_log_spread >= 0.0
@@ -276,7 +298,7 @@ class FastSLAM2:
         association: str = "ml",
         initial_capacity: int = 32,
         resample_min_log_spread: float | None = None,
-        loop_drift_rate: float = 0.02,
+        loop_drift_100m: float = 0.7,
         seed: int | None = None,
         x0=None,
         P0=None,
@@ -294,7 +316,7 @@ class FastSLAM2:
                 association=association,
                 initial_capacity=initial_capacity,
                 resample_min_log_spread=resample_min_log_spread,
-                loop_drift_rate=loop_drift_rate,
+                loop_drift_100m=loop_drift_100m,
             )
         self.config = config
         if rng is None:
@@ -314,13 +336,16 @@ class FastSLAM2:
         self._xv[:, 2] = _wrap(self._xv[:, 2])
         self._Pv = np.tile(_sym(P0), (n, 1, 1))
         self._logw = np.zeros(n)
+        # Rao-Blackwellized pose estimate per particle: the proposal's Gaussian (mean and
+        # covariance) before sampling, then propagated by odometry (what pose() reports).
+        self._xv_rb, self._Pv_rb = self._xv.copy(), self._Pv.copy()
         self._m = np.zeros((n, cap, 2))
         self._P = np.zeros((n, cap, 2, 2))
         self._exists = np.zeros((n, cap), dtype=bool)
         self._count = np.zeros(n, dtype=np.intp)
-        self._seen = np.zeros((n, cap))  # path length (m) at which each landmark was mapped
-        self._anchor = np.zeros(n)  # mapping path length of the landmark last updated
-        self._last_obs = np.zeros(n)  # path length (m) of the particle's last update
+        # path length travelled (m) when each landmark was mapped and last updated
+        self._mapped = np.zeros((n, cap))
+        self._updated = np.zeros((n, cap))
         self._path = 0.0  # path length travelled (m), from the odometry increments
         self._slot_label = np.full(cap, -1, dtype=np.int64)
         self._label_slot: dict[int, int] = {}
@@ -368,23 +393,8 @@ class FastSLAM2:
         validate_covariance("Odometry.cov", odometry.cov, positive_definite=False)
         dx, dy, dphi = odometry.delta
         Q = _sym(odometry.cov)
-        phi = self._xv[:, 2]
-        c, s = np.cos(phi), np.sin(phi)
-        n = self.n_particles
-        Gv = np.zeros((n, 3, 3))
-        Gv[:, 0, 0] = Gv[:, 1, 1] = Gv[:, 2, 2] = 1.0
-        Gv[:, 0, 2] = -dx * s - dy * c
-        Gv[:, 1, 2] = dx * c - dy * s
-        Gu = np.zeros((n, 3, 3))
-        Gu[:, 0, 0], Gu[:, 0, 1] = c, -s
-        Gu[:, 1, 0], Gu[:, 1, 1] = s, c
-        Gu[:, 2, 2] = 1.0
-        xv = self._xv.copy()
-        xv[:, 0] += dx * c - dy * s
-        xv[:, 1] += dx * s + dy * c
-        xv[:, 2] = _wrap(phi + dphi)
-        self._Pv = _sym(_quad(Gv, self._Pv) + _quad(Gu, Q))
-        self._xv = xv
+        self._xv, self._Pv = _propagate(self._xv, self._Pv, dx, dy, dphi, Q)
+        self._xv_rb, self._Pv_rb = _propagate(self._xv_rb, self._Pv_rb, dx, dy, dphi, Q)
         self._path += float(np.hypot(dx, dy))
 
     # ------------------------------------------------------------------ update
@@ -424,9 +434,9 @@ class FastSLAM2:
         m = np.zeros((n, new_cap, 2))
         P = np.zeros((n, new_cap, 2, 2))
         e = np.zeros((n, new_cap), dtype=bool)
-        seen = np.zeros((n, new_cap))
-        seen[:, :cap] = self._seen
-        self._seen = seen
+        mapped, updated = np.zeros((n, new_cap)), np.zeros((n, new_cap))
+        mapped[:, :cap], updated[:, :cap] = self._mapped, self._updated
+        self._mapped, self._updated = mapped, updated
         lab = np.full(new_cap, -1, dtype=np.int64)
         m[:, :cap], P[:, :cap], e[:, :cap], lab[:cap] = (
             self._m,
@@ -464,18 +474,17 @@ class FastSLAM2:
 
         # Working copies: the state is committed only at the end.
         xv, Pv, logw = self._xv.copy(), self._Pv.copy(), self._logw.copy()
-        seen_at = None
-        anchor, last_obs = self._anchor.copy(), self._last_obs.copy()
+        xv_rb, Pv_rb = self._xv_rb.copy(), self._Pv_rb.copy()
         self._ensure_capacity(base + n_known_new + k)  # capacity growth alone is harmless
         m, P, exists = self._m.copy(), self._P.copy(), self._exists.copy()
-        seen_at = self._seen.copy()
+        mapped, updated = self._mapped.copy(), self._updated.copy()
         count = self._count.copy()
 
         # ---------------------------------------------------------- association
         assoc = np.full((n, k), _REJECT, dtype=np.intp)
+        loop_gap = np.zeros(n)
         nis = np.full((n, k), np.nan)
         loglik = np.zeros((n, k))
-        drift = np.zeros((n, k))  # loop-closure variance (m^2) added to an associated landmark
         unknown = np.array([lab is None for lab in labels])
         j_unk = np.nonzero(unknown)[0]
         j_kn = np.nonzero(~unknown)[0]
@@ -518,24 +527,29 @@ class FastSLAM2:
                 trPv = np.trace(Pv, axis1=1, axis2=2)[:, None]
                 # Loop-closure allowance: a landmark last updated ``d`` metres of path ago
                 # is, relative to the particle's drifted pose, uncertain by about
-                # ``loop_drift_rate * d`` (the drift a finite particle set cannot hold).
-                gap = np.abs(seen_at[:, :used] - anchor[:, None]) + (self._path - last_obs)[:, None]
-                dvar = (cfg.loop_drift_rate * gap) ** 2
+                # ``loop_drift_100m * d`` (the drift a finite particle set cannot hold).
+                gap = self._drift_gap(mapped[:, :used], updated[:, :used], ex)
+                dvar = cfg.loop_drift_100m**2 * (gap / 100.0) ** 3
                 trPf = P[:, :used, 0, 0] + P[:, :used, 1, 1] + 2.0 * dvar
                 tr_bound = trPv * (2.0 + inv_d2) + trPf * (1.0 + inv_d2)  # (n, used)
                 tr_bound = tr_bound[:, None] + np.trace(R[j_unk], axis1=1, axis2=2)[None, :, None]
                 lower = np.einsum("...i,...i->...", v, v) / tr_bound  # (n, ku, used)
                 pi, pq, pl = np.nonzero((lower < cfg.augment_gate) & ex[:, None, :])
                 d2 = np.full((n, ku, used), np.inf)
+                d2_true = np.full((n, ku, used), np.inf)
                 ll = np.full((n, ku, used), -np.inf)
                 if pi.size:
-                    Pf = P[pi, pl] + dvar[pi, pl][:, None, None] * np.eye(2)
-                    S = _quad(Hv[pi, pl], Pv[pi]) + _quad(Hf[pi, pl], Pf) + R[j_unk][pq]
+                    Sv = _quad(Hv[pi, pl], Pv[pi]) + R[j_unk][pq]
+                    HPH = _quad(Hf[pi, pl], P[pi, pl])
+                    HH = _mm(Hf[pi, pl], np.swapaxes(Hf[pi, pl], -1, -2))
+                    S = Sv + HPH + dvar[pi, pl][:, None, None] * HH
                     Si, det = _inv2(S)
                     vv = v[pi, pq, pl]
                     dd = np.einsum("...i,...ij,...j->...", vv, Si, vv)
                     d2[pi, pq, pl] = dd
                     ll[pi, pq, pl] = -0.5 * dd - 0.5 * np.log(det) - _LOG_2PI
+                    Si_t, _ = _inv2(Sv + HPH)
+                    d2_true[pi, pq, pl] = np.einsum("...i,...ij,...j->...", vv, Si_t, vv)
                 ll_gated = np.where(d2 < cfg.reject_gate, ll, -np.inf)
                 best = np.argmax(ll_gated, axis=2)  # (n, ku)
                 best_ll = np.take_along_axis(ll_gated, best[..., None], 2)[..., 0]
@@ -555,10 +569,13 @@ class FastSLAM2:
                 a = np.where(loses, _REJECT, a)
                 matched &= ~loses
                 assoc[:, j_unk] = a
+                # loop closures: matched only thanks to the drift allowance
+                bt = np.take_along_axis(d2_true, best[..., None], 2)[..., 0]
+                closing = matched & (bt > cfg.reject_gate)
+                bgap = np.take_along_axis(gap, np.where(matched, best, 0), axis=1)
+                loop_gap = np.where(closing, bgap, 0.0).max(axis=1)  # (n,)
                 nis[:, j_unk] = np.where(matched, best_d2, np.nan)
                 loglik[:, j_unk] = np.where(matched, best_ll, p0[None, :])
-                bd = np.take_along_axis(dvar, np.where(matched, best, 0), axis=1)
-                drift[:, j_unk] = np.where(matched, bd, 0.0)
             else:
                 assoc[:, j_unk] = _NEW
                 loglik[:, j_unk] = p0[None, :]
@@ -568,9 +585,19 @@ class FastSLAM2:
         # joint predictive density is one Gaussian with S = Hv Pv Hv^T + blockdiag(Hf Pf Hf^T + R)
         # (as in Bailey's later compute_weight), not the product of the per-observation ones.
         valid = assoc >= 0
+        if np.any(loop_gap > 0.0):
+            # A particle closing a loop is uncertain about its pose relative to the old map by
+            # the drift allowance: position variance sigma^2 (gap), heading variance
+            # 3 sigma^2 / gap^2 (a heading random walk integrated over the gap).
+            pvar = cfg.loop_drift_100m**2 * (loop_gap / 100.0) ** 3
+            hvar = 3.0 * pvar / np.maximum(loop_gap, 1.0) ** 2
+            Pv = Pv.copy()
+            Pv[:, 0, 0] += pvar
+            Pv[:, 1, 1] += pvar
+            Pv[:, 2, 2] += hvar
         logw = logw + np.where(valid, 0.0, loglik).sum(axis=1)
         if valid.any():
-            logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid, drift)
+            logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid)
         logw -= logw.max()  # keep in range; the normalization is implicit
         w, _ = normalize_log_weights(logw)
         decisive = cfg.resample_min_log_spread is None or (
@@ -579,8 +606,8 @@ class FastSLAM2:
         if decisive and 1.0 / np.sum(w * w) < cfg.resample_threshold * n:
             idx = self._resample(w, self.rng)
             xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
-            assoc, nis, seen_at = assoc[idx], nis[idx], seen_at[idx]
-            anchor, last_obs = anchor[idx], last_obs[idx]
+            assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]
+            xv_rb, Pv_rb = xv_rb[idx], Pv_rb[idx]
             logw = np.zeros(n)
             resampled = True
         else:
@@ -606,6 +633,7 @@ class FastSLAM2:
         # ---------------------------------------------------------- sample the pose
         draw = np.any(assoc != _REJECT, axis=1)
         if draw.any():
+            xv_rb[draw], Pv_rb[draw] = xv[draw], Pv[draw]
             lam, V = np.linalg.eigh(Pv[draw])
             L = V * np.sqrt(np.maximum(lam, 0.0))[:, None, :]
             eps = self.rng.standard_normal((int(draw.sum()), 3))
@@ -627,11 +655,7 @@ class FastSLAM2:
             m[pi, sl] = m[pi, sl] + np.einsum("sij,sj->si", K, v)
             IKH = np.eye(2) - K @ Hf  # Joseph form keeps the 2x2 covariances PSD
             P[pi, sl] = _sym(_quad(IKH, Pf) + _quad(K, R[pj]))
-            upd_anchor = np.full(n, -np.inf)
-            np.maximum.at(upd_anchor, pi, seen_at[pi, sl])
-            ok = np.isfinite(upd_anchor)
-            anchor[ok] = upd_anchor[ok]
-            last_obs[ok] = self._path
+            updated[pi, sl] = self._path
 
         # ---------------------------------------------------------- augmentation
         newmask = assoc == _NEW
@@ -654,12 +678,7 @@ class FastSLAM2:
             Gz[:, 1, 0], Gz[:, 1, 1] = s, r * c
             P[pi, slots] = _sym(_quad(Gz, R[pj]))
             exists[pi, slots] = True
-            seen_at[pi, slots] = self._path
-            has_old = np.zeros(n, dtype=bool)
-            has_old[np.nonzero(assoc >= 0)[0]] = True
-            no_old = np.unique(pi[~has_old[pi]])
-            anchor[no_old] = self._path  # only new landmarks: they anchor the particle now
-            last_obs[no_old] = self._path
+            mapped[pi, slots] = updated[pi, slots] = self._path
             if n_known_new:
                 count = np.maximum(count, base + n_known_new)
             count = np.maximum(count, first_free + unk_new.sum(axis=1))
@@ -668,8 +687,8 @@ class FastSLAM2:
         # ---------------------------------------------------------- commit
         self._xv, self._Pv, self._logw = xv, Pv, logw
         self._m, self._P, self._exists, self._count = m, P, exists, count
-        self._seen = seen_at
-        self._anchor, self._last_obs = anchor, last_obs
+        self._mapped, self._updated = mapped, updated
+        self._xv_rb, self._Pv_rb = xv_rb, Pv_rb
         for lab in new_labels:
             self._slot_label[label_slot[lab]] = lab
         self._label_slot = label_slot
@@ -678,9 +697,8 @@ class FastSLAM2:
         return UpdateResult(associations=assoc[b].copy(), new=newmask[b].copy(), nis=nis[b].copy())
 
     @staticmethod
-    def _joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid, drift=None) -> np.ndarray:
-        """(n,) log N(z_valid; zhat, S) per particle over its associated observations;
-        ``drift (n, k)`` adds ``drift * I`` (m^2) to the landmark covariance of a pair."""
+    def _joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid) -> np.ndarray:
+        """(n,) log N(z_valid; zhat, S) per particle over its associated observations."""
         n, k = assoc.shape
         rows = np.arange(n)[:, None]
         sl = np.where(valid, assoc, 0)
@@ -689,10 +707,7 @@ class FastSLAM2:
         v[..., 1] = _wrap(v[..., 1])
         v = np.where(valid[..., None], v, 0.0)
         Hv = np.where(valid[..., None, None], Hv, 0.0)
-        Pf = P[rows, sl]
-        if drift is not None:
-            Pf = Pf + drift[..., None, None] * np.eye(2)
-        Sf = np.where(valid[..., None, None], _quad(Hf, Pf) + R[None], np.eye(2))
+        Sf = np.where(valid[..., None, None], _quad(Hf, P[rows, sl]) + R[None], np.eye(2))
         Hvj = Hv.reshape(n, 2 * k, 3)
         S = Hvj @ Pv @ np.swapaxes(Hvj, 1, 2)
         S4 = S.reshape(n, k, 2, k, 2)
@@ -703,6 +718,23 @@ class FastSLAM2:
         _, logdet = np.linalg.slogdet(S)
         q = np.einsum("ni,ni->n", vj, np.linalg.solve(S, vj[..., None])[..., 0])
         return -0.5 * q - 0.5 * logdet - valid.sum(axis=1) * _LOG_2PI
+
+    def _drift_gap(self, mapped, updated, ex) -> np.ndarray:
+        """(n, L) path length (m) over which each particle's pose may have drifted relative to
+        each landmark: the particle is anchored to the landmarks it updated within
+        ``_RECENT_M`` of its last update (their mapping path lengths span ``[lo, hi]``); a
+        landmark mapped at ``s`` is ``max(|s - lo|, |s - hi|)`` of path away from that anchor,
+        plus the dead reckoning since the last update. During a loop closure the anchors span
+        both ends of the loop, so the gate stays wide until the particle has re-localized."""
+        last = np.where(ex, updated, -np.inf).max(axis=1)  # (n,)
+        last = np.where(np.isfinite(last), last, 0.0)
+        recent = ex & (updated >= last[:, None] - _RECENT_M)
+        lo = np.where(recent, mapped, np.inf).min(axis=1)
+        hi = np.where(recent, mapped, -np.inf).max(axis=1)
+        lo = np.where(np.isfinite(lo), lo, 0.0)
+        hi = np.where(np.isfinite(hi), hi, 0.0)
+        span = np.maximum(np.abs(mapped - lo[:, None]), np.abs(mapped - hi[:, None]))
+        return span + (self._path - last)[:, None]
 
     def _p0(self, R: np.ndarray) -> np.ndarray:
         """Log-likelihood given to a new or discarded observation, (k,)."""
@@ -717,18 +749,23 @@ class FastSLAM2:
         return int(np.argmax(self._logw))
 
     def pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """Weighted mixture mean and covariance of the particle poses.
+        """Rao-Blackwellized mixture mean and covariance of the current pose.
 
-        ``x = sum w_i x_i`` (circular mean for phi); ``P = sum w_i (Pv_i + d_i d_i^T)``
-        with ``d_i = x_i - x`` (heading difference wrapped).
+        Each particle contributes the Gaussian its pose was last sampled from (the
+        FastSLAM 2.0 proposal ``N(mu_i, Pv_i)``, i.e. ``p(x_k | x_{0:k-1,i}, z_{1:k})``),
+        propagated by the odometry since: ``x = sum w_i mu_i`` (circular mean for phi),
+        ``P = sum w_i (Pv_i + d_i d_i^T)`` with ``d_i = mu_i - x`` (heading wrapped).
+        Unlike the spread of the samples alone this stays positive definite when one
+        particle carries all the weight.
         """
         w = self.weights
+        mu, Pv = self._xv_rb, self._Pv_rb
         x = np.empty(3)
-        x[:2] = w @ self._xv[:, :2]
-        x[2] = np.arctan2(w @ np.sin(self._xv[:, 2]), w @ np.cos(self._xv[:, 2]))
-        d = self._xv - x
+        x[:2] = w @ mu[:, :2]
+        x[2] = np.arctan2(w @ np.sin(mu[:, 2]), w @ np.cos(mu[:, 2]))
+        d = mu - x
         d[:, 2] = _wrap(d[:, 2])
-        Pm = np.einsum("i,ij,ik->jk", w, d, d) + np.einsum("i,ijk->jk", w, self._Pv)
+        Pm = np.einsum("i,ij,ik->jk", w, d, d) + np.einsum("i,ijk->jk", w, Pv)
         return x, _sym(Pm)
 
     def _slots(self) -> np.ndarray:
