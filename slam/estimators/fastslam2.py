@@ -184,7 +184,17 @@ class FastSLAM2Config:
 
     n_particles : number of particles (thesis: 100).
     resample_threshold : resample when ``N_eff < resample_threshold * n_particles``
-        (thesis: 75 of 100 → 0.75).
+        (thesis and Bailey: 75 of 100 → 0.75). None (default) → 0.0 (never resample) with
+        ``association="known"`` and 0.75 otherwise. Why: between loop closures the log
+        weights drift apart by the per-scan proposal noise (tens of nats over the dense
+        loop), which says little about the accumulated path drift; resampling on it leaves
+        all particles descended from a few scans-old ancestors, so at the loop closure no
+        path hypothesis with a small drift is left. Kept in log form, the unresampled
+        particles stay independent path hypotheses, and the closure's likelihood (hundreds
+        to thousands of nats) selects the one whose map agrees best (dense loop, known
+        association, 20 runs: median landmark RMSE 6.25 m → 2.84 m). With maximum-likelihood
+        association the particles must also agree on the associations, and the Neff rule
+        is better (measured).
     reject_gate : an unlabelled observation is associated with the maximum-likelihood
         landmark among those whose normalized innovation squared (NIS, chi-square with 2
         dof) is below this gate (4.0 as the AEKF).
@@ -202,10 +212,21 @@ class FastSLAM2Config:
         ``label``, which is the landmark identity, as in Bailey's FastSLAM 2.0) or "auto"
         (the label when present, maximum likelihood otherwise).
     initial_capacity : landmark slots allocated at start (grown by doubling).
+    loop_drift_100m : loop-closure allowance for maximum-likelihood association (m): the
+        standard deviation of a particle's pose drift, relative to landmarks it has not been
+        anchored to, after 100 m of path; it grows as ``(gap / 100 m) ** 1.5`` (a heading
+        random walk integrated along the path). ``gap`` is the path length between the
+        landmark's mapping and the landmarks the particle currently tracks (see
+        ``_drift_gap``). The allowance widens the association gate (landmark covariance
+        ``+ sigma^2 I``); a particle that associates an observation only thanks to it is
+        closing a loop and gets the drift as pose uncertainty (position ``sigma^2``, heading
+        ``3 sigma^2 / gap^2``) in its weight and proposal, so it jumps onto the old map
+        instead of duplicating it. 0 disables it. Labels (``association="known"``) never
+        use it.
     """
 
     n_particles: int = 100
-    resample_threshold: float = 0.75
+    resample_threshold: float | None = None
     reject_gate: float = 4.0
     augment_gate: float = 25.0
     new_landmark_log_likelihood: float | None = None
@@ -213,13 +234,12 @@ class FastSLAM2Config:
     map_estimate: str = "best"
     association: str = "ml"
     initial_capacity: int = 32
-    resample_min_log_spread: float | None = None
     loop_drift_100m: float = 0.7
 
     def __post_init__(self) -> None:
         if not (isinstance(self.n_particles, int | np.integer) and self.n_particles >= 1):
             raise ValueError(f"n_particles must be an integer >= 1, got {self.n_particles!r}")
-        if not 0.0 <= self.resample_threshold <= 1.0:
+        if self.resample_threshold is not None and not 0.0 <= self.resample_threshold <= 1.0:
             raise ValueError(
                 f"resample_threshold must be in [0, 1], got {self.resample_threshold!r}"
             )
@@ -253,13 +273,6 @@ class FastSLAM2Config:
             raise ValueError(
                 f"loop_drift_100m must be finite and >= 0, got {self.loop_drift_100m!r}"
             )
-        if self.resample_min_log_spread is not None and not (
-            np.isfinite(self.resample_min_log_spread) and self.resample_min_log_spread >= 0.0
-        ):
-            raise ValueError(
-                "resample_min_log_spread must be None or finite and >= 0, "
-                f"got {self.resample_min_log_spread!r}"
-            )
         if not (isinstance(self.initial_capacity, int | np.integer) and self.initial_capacity >= 1):
             raise ValueError(
                 f"initial_capacity must be an integer >= 1, got {self.initial_capacity!r}"
@@ -288,7 +301,7 @@ class FastSLAM2:
         self,
         n_particles: int = 100,
         rng: np.random.Generator | None = None,
-        resample_threshold: float = 0.75,
+        resample_threshold: float | None = None,
         reject_gate: float = 4.0,
         augment_gate: float = 25.0,
         *,
@@ -297,7 +310,6 @@ class FastSLAM2:
         map_estimate: str = "best",
         association: str = "ml",
         initial_capacity: int = 32,
-        resample_min_log_spread: float | None = None,
         loop_drift_100m: float = 0.7,
         seed: int | None = None,
         x0=None,
@@ -315,7 +327,6 @@ class FastSLAM2:
                 map_estimate=map_estimate,
                 association=association,
                 initial_capacity=initial_capacity,
-                resample_min_log_spread=resample_min_log_spread,
                 loop_drift_100m=loop_drift_100m,
             )
         self.config = config
@@ -350,6 +361,10 @@ class FastSLAM2:
         self._slot_label = np.full(cap, -1, dtype=np.int64)
         self._label_slot: dict[int, int] = {}
         self.n_resamples = 0
+        if config.resample_threshold is not None:
+            self._threshold = float(config.resample_threshold)
+        else:  # see FastSLAM2Config.resample_threshold
+            self._threshold = 0.0 if config.association == "known" else 0.75
         self._resample = (
             systematic_resample if config.resampler == "systematic" else stratified_resample
         )
@@ -600,10 +615,7 @@ class FastSLAM2:
             logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid)
         logw -= logw.max()  # keep in range; the normalization is implicit
         w, _ = normalize_log_weights(logw)
-        decisive = cfg.resample_min_log_spread is None or (
-            logw.max() - np.median(logw) > cfg.resample_min_log_spread
-        )
-        if decisive and 1.0 / np.sum(w * w) < cfg.resample_threshold * n:
+        if 1.0 / np.sum(w * w) < self._threshold * n:
             idx = self._resample(w, self.rng)
             xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
             assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]

@@ -145,9 +145,9 @@ def test_proposal_samples_the_joint_ekf_pose_posterior():
     np.testing.assert_allclose(P_rb, P_exp, atol=1e-9)
 
 
-def _loop_filter(n=50, seed=0):
+def _loop_filter(n=50, seed=0, **kw):
     """A filter that has mapped two landmarks with some pose uncertainty."""
-    f = FastSLAM2(n_particles=n, rng=np.random.default_rng(seed), association="known")
+    f = FastSLAM2(n_particles=n, rng=np.random.default_rng(seed), association="known", **kw)
     lms = np.array([[10.0, 3.0], [12.0, -4.0]])
     rng = np.random.default_rng(seed + 100)
     x = np.zeros(3)
@@ -249,8 +249,9 @@ def test_same_seed_same_result_and_rng_is_the_only_randomness():
 def test_resampling_runs_only_when_effective_sample_size_drops_below_75_percent():
     """Particles spread 2 m along x with exact poses: a precise observation gives very unequal
     weights (N_eff << 75), so resampling must run and reset the weights to uniform.
-    Identical particles get equal weights (N_eff = N): no resampling."""
-    f, lms, x = _loop_filter(n=100, seed=1)
+    Identical particles get equal weights (N_eff = N): no resampling. (Bailey's rule, set
+    explicitly: with known association the default is never to resample.)"""
+    f, lms, x = _loop_filter(n=100, seed=1, resample_threshold=0.75)
     f._xv = np.tile(x, (100, 1))
     f._Pv[:] = 0.0
     f._m[:], f._P[:] = f._m[0], f._P[0]
@@ -264,6 +265,29 @@ def test_resampling_runs_only_when_effective_sample_size_drops_below_75_percent(
     f.update(obs)
     assert f.n_resamples == before + 1
     np.testing.assert_allclose(f.weights, np.full(100, 0.01))
+
+
+def test_default_resampling_rule_depends_on_association():
+    """None → never resample with labels (path hypotheses kept for the loop closure), Bailey's
+    75 % rule with maximum-likelihood association; an explicit value always wins. The same
+    very unequal weights as above must trigger resampling only where the rule says so."""
+    assert FastSLAM2(n_particles=4, seed=0, association="known")._threshold == 0.0
+    assert FastSLAM2(n_particles=4, seed=0, association="ml")._threshold == 0.75
+    assert FastSLAM2(n_particles=4, seed=0, association="auto")._threshold == 0.75
+    assert (
+        FastSLAM2(n_particles=4, seed=0, association="known", resample_threshold=0.5)._threshold
+        == 0.5
+    )
+    f, lms, x = _loop_filter(n=100, seed=1)
+    f._xv = np.tile(x, (100, 1))
+    f._xv[:, 0] += np.linspace(-1.0, 1.0, 100)
+    f._Pv[:] = 0.0
+    f._m[:], f._P[:] = f._m[0], f._P[0]
+    before = f.n_resamples
+    f.update([RangeBearing(_h(x, lms[i]), R_DEFAULT, label=i) for i in range(2)])
+    assert f.n_resamples == before
+    assert f.effective_sample_size() < 75.0  # it would have resampled under Bailey's rule
+    assert np.isclose(f.weights.sum(), 1.0) and np.all(np.isfinite(f.log_weights))
 
 
 @pytest.mark.parametrize(
