@@ -117,8 +117,7 @@ def test_circle_loop_both_estimators_map_better_than_dead_reckoning(seed):
         err, j = nearest_errors(M, lm)
         rmse = float(np.sqrt(np.mean(err**2)))
         assert rmse < dr, f"{name}: landmark RMSE {rmse:.2f} m not below dead reckoning {dr:.2f} m"
-        if name != "fastslam2-ml":  # per-particle ML may duplicate after drift (documented)
-            assert M.shape[0] == 12, name
+        assert M.shape[0] == 12, name  # FastSLAM ML: the loop-closure allowance re-associates
         if name == "isam2-ml":
             d = M[j] - lm
             md2 = np.einsum("ni,nij,nj->n", d, np.linalg.inv(C[j]), d)
@@ -230,3 +229,69 @@ def test_dense_loop_two_loops_five_seeds():
         assert np.mean(md2 < CHI2_2DOF_99) >= 0.9
     assert np.median(is_rmse) < 1.0, is_rmse
     assert np.median(fs_rmse) < np.median(dr_rmse), (fs_rmse, dr_rmse)
+
+
+def test_circle_ml_loop_closure_allowance_reassociates_where_plain_gating_duplicates():
+    """Maximum-likelihood association per particle on the circle world (1.25 loops, seeds
+    0-3). Independent expectation: the map has exactly the 12 true landmarks. With the
+    loop-closure allowance (default ``loop_drift_100m``) every run re-associates the first
+    landmarks; with it switched off (plain gates on the particle's predict covariance) the
+    same data duplicate them in at least 3 of the 4 runs, which shows what the allowance
+    fixes (measured: 12 landmarks in 16/16 runs at 1.25 and 2 loops with it, duplicates in
+    14/16 without)."""
+    dup_without = 0
+    for seed in range(4):
+        lm, _, scans = circle_scenario(seed)
+        dr = dead_reckoning_map_rmse(lm, scans)
+        f = run_estimator(FastSLAM2(rng=np.random.default_rng(seed)), scans)
+        M, _ = f.landmarks()
+        assert M.shape[0] == 12, f"seed {seed}: {M.shape[0]} landmarks"
+        err, j = nearest_errors(M, lm)
+        assert np.unique(j).size == 12  # one estimate per true landmark
+        assert np.sqrt(np.mean(err**2)) < dr
+        g = run_estimator(FastSLAM2(rng=np.random.default_rng(seed), loop_drift_100m=0.0), scans)
+        dup_without += g.landmarks()[0].shape[0] > 12
+    assert dup_without >= 3
+
+
+def _runner_rmse(seeds, params):
+    runner = pytest.importorskip("slam.experiments.runner")
+    spec = runner.get_experiment("dense-loop", dt=0.025)
+    out = []
+    for seed in seeds:
+        r = runner.run_once(spec, "fastslam2", seed, params)
+        assert np.isfinite(r.landmark_rmse) and np.all(np.isfinite(r.nees))
+        out.append(r)
+    return out
+
+
+def test_dense_loop_known_association_beats_baileys_median_on_five_runs():
+    """Dense loop, 2 loops, dt 0.025 s, 100 particles, known association, the runner's seeds
+    0-4 (the CLI's data). Independent expectations: Tim Bailey's MATLAB FastSLAM 2.0 reaches
+    a median landmark RMSE of 3.4 m over 20 seeds (REFERENCE.md), and the same filter with
+    Bailey's resampling rule (N_eff < 75) on the same data does worse (measured here: 4.9 m
+    median on these seeds, 6.25 m over 20) — the default (log weights, no resampling with
+    labels) keeps the path hypotheses the loop closure chooses among. Its pose covariance
+    stays positive definite (finite NEES in every scan)."""
+    ours = _runner_rmse(range(5), {"association": "known"})
+    bailey = _runner_rmse(range(5), {"association": "known", "resample_threshold": 0.75})
+    med = float(np.median([r.landmark_rmse for r in ours]))
+    med_b = float(np.median([r.landmark_rmse for r in bailey]))
+    assert med < 3.4, med
+    assert med < med_b, (med, med_b)
+    assert all(r.n_duplicates == 0 for r in ours)
+
+
+@pytest.mark.slow
+def test_dense_loop_twenty_runs_known_and_ml():
+    """The issue's 20-run checks (seeds 0-19, dt 0.025 s, 100 particles), about 1 min:
+    known association median landmark RMSE <= 3.4 m (Bailey's median) with valid weights
+    and finite NEES in every run; maximum-likelihood association re-associates at loop
+    closure in most runs: at most half of the runs end with more landmarks than the 30
+    ever seen (before the loop-closure allowance: all 20 runs, ~29 extra each)."""
+    known = _runner_rmse(range(20), {"association": "known"})
+    assert float(np.median([r.landmark_rmse for r in known])) <= 3.4
+    ml = _runner_rmse(range(20), {})
+    extra = [r.n_landmarks - r.n_true_seen for r in ml]
+    assert sum(e > 0 for e in extra) <= 10, extra
+    assert max(extra) <= 5, extra
