@@ -287,11 +287,12 @@ def test_dense_loop_twenty_runs_known_and_ml():
     """The issue's 20-run checks (seeds 0-19, dt 0.025 s, 100 particles), about 1 min:
     known association median landmark RMSE <= 3.4 m (Bailey's median) with valid weights
     and finite NEES in every run; maximum-likelihood association re-associates at loop
-    closure in most runs: at most half of the runs end with more landmarks than the 30
-    ever seen (before the loop-closure allowance: all 20 runs, ~29 extra each)."""
+    closure: at most 2 of 20 runs end with more landmarks than the 30 ever seen (measured:
+    0; before the loop-closure allowance: all 20, ~29 extra each) and at most 6 with fewer
+    (two true landmarks merged by a wide gate; measured: 4)."""
     known = _runner_rmse(range(20), {"association": "known"})
     assert float(np.median([r.landmark_rmse for r in known])) <= 3.4
     ml = _runner_rmse(range(20), {})
     extra = [r.n_landmarks - r.n_true_seen for r in ml]
-    assert sum(e > 0 for e in extra) <= 10, extra
-    assert max(extra) <= 5, extra
+    assert sum(e > 0 for e in extra) <= 2, extra
+    assert sum(e < 0 for e in extra) <= 6, extra
