@@ -678,6 +678,9 @@ class FastSLAM2:
 
         # ---------------------------------------------------------- proposal (sequential EKF)
         ar = np.arange(n)
+        closers = np.nonzero((loop_gap > 0.0) & np.any(assoc >= 0, axis=1))[0]
+        if closers.size:
+            x0c, P0c = xv[closers].copy(), Pv[closers].copy()
         for j in range(k):
             sel = ar[assoc[:, j] >= 0]
             if sel.size == 0:
@@ -692,6 +695,12 @@ class FastSLAM2:
             xv[sel] = xv[sel] + np.einsum("sij,sj->si", K, v)
             xv[sel, 2] = _wrap(xv[sel, 2])
             Pv[sel] = _sym(Pv[sel] - K @ S @ np.swapaxes(K, -1, -2))
+        if closers.size:
+            # A loop closure moves the pose by metres: iterate the (joint) update, relinearizing
+            # at the latest mean (Gauss-Newton / iterated EKF), for the closing particles only.
+            xv[closers], Pv[closers] = self._iterated_pose_update(
+                x0c, P0c, xv[closers], m[closers], P[closers], Z, R, assoc[closers]
+            )
 
         # ---------------------------------------------------------- sample the pose
         draw = np.any(assoc != _REJECT, axis=1)
@@ -782,12 +791,49 @@ class FastSLAM2:
         q = np.einsum("ni,ni->n", vj, np.linalg.solve(S, vj[..., None])[..., 0])
         return -0.5 * q - 0.5 * logdet - valid.sum(axis=1) * _LOG_2PI
 
+    @staticmethod
+    def _iterated_pose_update(x0, P0, x, m, P, Z, R, assoc, iterations: int = 5):
+        """Iterated EKF of the pose prior ``N(x0, P0)`` (c, 3) with each particle's associated
+        observations jointly (landmark uncertainty in the measurement noise, as the
+        proposal), starting the linearization at ``x``; returns the mean and covariance."""
+        c, k = assoc.shape
+        valid = assoc >= 0
+        rows = np.arange(c)[:, None]
+        sl = np.where(valid, assoc, 0)
+        mf, Pf = m[rows, sl], P[rows, sl]
+        for _ in range(iterations):
+            zhat, Hv, Hf = observation_model(x[:, None, :], mf)  # (c, k, ...)
+            v = Z[None] - zhat
+            v[..., 1] = _wrap(v[..., 1])
+            dx = x - x0
+            dx[:, 2] = _wrap(dx[:, 2])
+            v = v + np.einsum("ckij,cj->cki", Hv, dx)  # z - h(x) - H (x0 - x)
+            v = np.where(valid[..., None], v, 0.0)
+            Hv = np.where(valid[..., None, None], Hv, 0.0)
+            Sf = np.where(valid[..., None, None], _quad(Hf, Pf) + R[None], np.eye(2))
+            Hj = Hv.reshape(c, 2 * k, 3)
+            S = Hj @ P0 @ np.swapaxes(Hj, 1, 2)
+            S4 = S.reshape(c, k, 2, k, 2)
+            idx = np.arange(k)
+            S4[:, idx, :, idx, :] += np.moveaxis(Sf, 1, 0)
+            S = _sym(S4.reshape(c, 2 * k, 2 * k))
+            PHt = P0 @ np.swapaxes(Hj, 1, 2)  # (c, 3, 2k)
+            K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, 1, 2)), 1, 2)
+            x_new = x0 + np.einsum("cij,cj->ci", K, v.reshape(c, 2 * k))
+            x_new[:, 2] = _wrap(x_new[:, 2])
+            step = np.abs(x_new - x).max()
+            x = x_new
+            if step < 1e-6:
+                break
+        Pn = _sym(P0 - K @ S @ np.swapaxes(K, 1, 2))
+        return x, Pn
+
     def _drift_gap(self, mapped, updated, ex) -> np.ndarray:
         """(n, L) path length (m) over which each particle's pose may have drifted relative to
         each landmark: the particle is anchored to the landmarks it updated within
         ``loop_anchor_window_m`` of path before its last update (their mapping path lengths span ``[lo, hi]``); a
-        landmark mapped at ``s`` is ``max(|s - lo|, |s - hi|)`` of path away from that anchor,
-        plus the dead reckoning since the last update. During a loop closure the anchors span
+        landmark mapped at ``s`` is ``max(|s - lo|, |s - hi|)`` of path away from that anchor
+        (the dead reckoning since the last update is already in the particle's ``Pv``). During a loop closure the anchors span
         both ends of the loop, so the gate stays wide until the particle has re-localized."""
         last = np.where(ex, updated, -np.inf).max(axis=1)  # (n,)
         last = np.where(np.isfinite(last), last, 0.0)
@@ -797,7 +843,7 @@ class FastSLAM2:
         lo = np.where(np.isfinite(lo), lo, 0.0)
         hi = np.where(np.isfinite(hi), hi, 0.0)
         span = np.maximum(np.abs(mapped - lo[:, None]), np.abs(mapped - hi[:, None]))
-        return span + (self._path - last)[:, None]
+        return span
 
     def _p0(self, R: np.ndarray) -> np.ndarray:
         """Log-likelihood given to a new or discarded observation, (k,)."""
