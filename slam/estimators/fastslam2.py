@@ -628,7 +628,7 @@ class FastSLAM2:
                 a = np.where(loses, _REJECT, a)
                 matched &= ~loses
                 assoc[:, j_unk] = a
-                # loop closures: matched only thanks to the drift allowance
+                # loop closures: pairs that plain gating would have made new landmarks
                 mi, mq = np.nonzero(matched)
                 bl = best[mi, mq]
                 Hb = Hf[mi, bl]  # true S = inflated S - dvar Hf Hf^T
@@ -637,7 +637,7 @@ class FastSLAM2:
                 Sti, _ = _inv2(St)
                 vv = v[mi, mq, bl]
                 closing = np.zeros((n, ku), dtype=bool)
-                closing[mi, mq] = np.einsum("...i,...ij,...j->...", vv, Sti, vv) > cfg.reject_gate
+                closing[mi, mq] = np.einsum("...i,...ij,...j->...", vv, Sti, vv) > cfg.augment_gate
                 bgap = np.take_along_axis(gap, np.where(matched, best, 0), axis=1)
                 loop_gap = np.where(closing, bgap, 0.0).max(axis=1)  # (n,)
                 nis[:, j_unk] = np.where(matched, best_d2, np.nan)
