@@ -26,8 +26,9 @@ implementation. This version follows Bailey's structure and fixes its known fail
   old landmark far outside the gates and it duplicates them. A drift allowance that grows
   with the path length between a landmark's mapping and the landmarks the particle is
   anchored to widens the gate for old landmarks only; a particle that associates thanks
-  to it gets the drift as pose uncertainty in its weight and proposal and jumps onto the
-  old map (``loop_drift_100m``, ``loop_anchor_window_m``).
+  to it (an observation plain gating would have made a new landmark) gets the drift as pose
+  uncertainty in its weight and proposal, and an iterated (Gauss-Newton) proposal update
+  puts it onto the old map (``loop_drift_100m``, ``loop_anchor_window_m``).
 * Everything is vectorized across particles: poses ``(N, 3)``, landmark means
   ``(N, M, 2)``, covariances ``(N, M, 2, 2)``, existence mask ``(N, M)``. The only Python
   loop is over the observations of one scan in the sequential proposal (a handful).
@@ -57,11 +58,12 @@ the same) but the resampling: on this sparse map (0-2 landmarks per scan) per-sc
 noise triggers it long before the loop closes. The filter is badly inconsistent: the time
 mean of the average NEES is ~8e6 (one particle carries the weight and its covariance is
 the proposal's, centimetres, against metres of drift; with Bailey's rule ~4e4). With
-``association="ml"`` the median RMSE (runner's one-to-one match) is 7.5 m, no run ends
-with more landmarks than the 30 seen (before the loop-closure allowance: every run, ~29
-extra), but 4 of 20 runs merge two true landmarks into one; time-mean NEES ~2e4. The
-allowance costs time: ``undersea bench slam`` FastSLAM/AEKF 5.9 (4.9 without). More
-particles help (1000 with Bailey's rule: consistent over the first loop, ~10x the time).
+``association="ml"`` the median RMSE (runner's one-to-one match) is 6.2 m (before the
+loop-closure allowance 13.5 m), no run ends with more landmarks than the 30 seen (before:
+every run, ~29 extra), but 2 of 20 runs (3 of seeds 20-39) merge two true landmarks into
+one; time-mean NEES ~3e4. The allowance costs time: ``undersea bench slam`` FastSLAM/AEKF
+5.8-5.9 (5.0 without, same machine). More particles help (1000 with Bailey's rule:
+consistent over the first loop, ~10x the time).
 
 The algorithm is hand-written (no library implements FastSLAM 2.0 on arrays);
 resampling comes from :mod:`slam.estimators.resampling`.
@@ -238,7 +240,8 @@ class FastSLAM2Config:
         random walk integrated along the path). ``gap`` is the path length between the
         landmark's mapping and the landmarks the particle currently tracks (see
         ``_drift_gap``). The allowance widens the association gate (landmark covariance
-        ``+ sigma^2 I``); a particle that associates an observation only thanks to it is
+        ``+ sigma^2 I``); a particle that associates an observation which plain gating would
+        have made a new landmark (NIS without the allowance above ``augment_gate``) is
         closing a loop and gets the drift as pose uncertainty (position ``sigma^2``, heading
         ``3 sigma^2 / gap^2``) in its weight and proposal, so it jumps onto the old map
         instead of duplicating it. 0 disables it. Labels (``association="known"``) never
@@ -246,8 +249,8 @@ class FastSLAM2Config:
     loop_anchor_window_m : the landmarks a particle updated within this much path (m) before
         its last update are its anchors; after a closure the loop-end landmarks stay among
         them, so the gate stays wide until the particle has re-localized on the old map
-        (dense loop ML, 20 runs: runs with extra landmarks 10 with 30 m, 0 with 120 m, 2
-        with 200 m; 120 m also merges two landmarks into one in 4 runs).
+        (dense loop ML, 20 runs, measured with an earlier closing test: runs with extra
+        landmarks 10 with 30 m, 0 with 120 m, 2 with 200 m).
     """
 
     n_particles: int = 100
