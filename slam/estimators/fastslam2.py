@@ -14,10 +14,10 @@ implementation. This version follows Bailey's structure and fixes its known fail
   (loop closure) never underflows every weight to zero — Bailey's implementation
   multiplies linear weights and collapses there; (3) resampling (systematic by default,
   stratified as Bailey) when ``N_eff < resample_threshold * N``, *before* the proposal as
-  Bailey does, for particle diversity — by default only with maximum-likelihood
-  association: with labels the log-weighted particles are kept as independent path
-  hypotheses for the loop closure to choose among (see
-  :attr:`FastSLAM2Config.resample_threshold`); (4) the FastSLAM 2.0 proposal: the pose mean and
+  Bailey does, for particle diversity (``resample_threshold=0`` never resamples: with
+  labels the log-weighted particles then stay independent path hypotheses for the loop
+  closure to choose among, see :attr:`FastSLAM2Config.resample_threshold`); (4) the
+  FastSLAM 2.0 proposal: the pose mean and
   covariance are refined by a sequential EKF update with every associated observation,
   then a new pose is *sampled* from that Gaussian with the ``rng`` given; (5) per-particle
   landmark EKF updates (Joseph form) at the sampled pose and augmentation of new landmarks.
@@ -49,9 +49,10 @@ landmark in every particle). Landmark indices in :class:`UpdateResult` and
 :meth:`landmarks` refer to the same slots.
 
 Known behaviour (measured on the dense-loop map, 2 loops, dt 0.025 s, 100 particles, the
-runner's seeds 0-19): with known association the median landmark RMSE is 2.84 m (runs
-1.2-7.3 m; Bailey's MATLAB: 3.4 m, with 5 of 20 runs collapsing; this filter with Bailey's
-75 % resampling rule: 6.25 m, runs 1.9-14 m). A step-by-step comparison with Bailey's
+runner's seeds 0-19): with known association and the default (Bailey's and the thesis's)
+75 % resampling rule the median landmark RMSE is 6.25 m (runs 1.9-14 m; Bailey's MATLAB:
+3.4 m, with 5 of 20 runs collapsing); with ``resample_threshold=0`` (never resample)
+2.84 m (runs 1.2-7.3 m). A step-by-step comparison with Bailey's
 fastslam2_sim (predict without noise growing Pv, weight before resampling, resampling
 before the sequential-EKF proposal, Pv zeroed after sampling, landmark EKFs at the sampled
 pose, add_feature) found no differing step; the one differing detail, the weight (joint
@@ -59,9 +60,10 @@ Gaussian over a scan as Bailey's later compute_weight, vs his 2004 product of
 per-observation densities), gave 4.8 m with the product on seeds 0-19, and the joint form
 gives 4.8 m on seeds 20-39: medians of 20 runs scatter by about +-1.5 m. What closes the
 gap is the resampling rule: on this sparse map (0-2 landmarks per scan) per-scan weight
-noise triggers resampling long before the loop closes. The filter is badly inconsistent: the time
-mean of the average NEES is ~8e6 (one particle carries the weight and its covariance is
-the proposal's, centimetres, against metres of drift; with Bailey's rule ~4e4). With
+noise triggers resampling long before the loop closes. The filter is badly inconsistent
+either way: the time mean of the average NEES is ~4e4 with the 75 % rule and ~8e6 without
+resampling (one particle carries the weight and its covariance is the proposal's,
+centimetres, against metres of drift). With
 ``association="ml"`` the median RMSE (runner's one-to-one match) is 6.2 m (before the
 loop-closure allowance 13.5 m), no run ends with more landmarks than the 30 seen (before:
 every run, ~29 extra), but 2 of 20 runs (3 of seeds 20-39) merge two true landmarks into
@@ -210,17 +212,18 @@ class FastSLAM2Config:
 
     n_particles : number of particles (thesis: 100).
     resample_threshold : resample when ``N_eff < resample_threshold * n_particles``
-        (thesis and Bailey: 75 of 100 → 0.75). None (default) → 0.0 (never resample) with
-        ``association="known"`` and 0.75 otherwise. Why: between loop closures the log
+        (thesis and Bailey: 75 of 100 → 0.75, the default). 0.0 never resamples, which
+        measured more accurate with ``association="known"``: between loop closures the log
         weights drift apart by the per-scan proposal noise (tens of nats over the dense
         loop), which says little about the accumulated path drift; resampling on it leaves
         all particles descended from a few scans-old ancestors, so at the loop closure no
         path hypothesis with a small drift is left. Kept in log form, the unresampled
         particles stay independent path hypotheses, and the closure's likelihood (hundreds
         to thousands of nats) selects the one whose map agrees best (dense loop, known
-        association, 20 runs: median landmark RMSE 6.25 m → 2.84 m). With maximum-likelihood
-        association the particles must also agree on the associations, and the Neff rule
-        is better (measured).
+        association, 20 runs: median landmark RMSE 6.25 m → 2.84 m, but the pose NEES grows
+        from ~4e4 to ~8e6: after the closure one particle holds all the weight). With
+        maximum-likelihood association the particles must also agree on the associations,
+        and the Neff rule is better (measured).
     reject_gate : an unlabelled observation is associated with the maximum-likelihood
         landmark among those whose normalized innovation squared (NIS, chi-square with 2
         dof) is below this gate (4.0 as the AEKF).
@@ -258,7 +261,7 @@ class FastSLAM2Config:
     """
 
     n_particles: int = 100
-    resample_threshold: float | None = None
+    resample_threshold: float = 0.75
     reject_gate: float = 4.0
     augment_gate: float = 25.0
     new_landmark_log_likelihood: float | None = None
@@ -272,7 +275,7 @@ class FastSLAM2Config:
     def __post_init__(self) -> None:
         if not (isinstance(self.n_particles, int | np.integer) and self.n_particles >= 1):
             raise ValueError(f"n_particles must be an integer >= 1, got {self.n_particles!r}")
-        if self.resample_threshold is not None and not 0.0 <= self.resample_threshold <= 1.0:
+        if not 0.0 <= self.resample_threshold <= 1.0:
             raise ValueError(
                 f"resample_threshold must be in [0, 1], got {self.resample_threshold!r}"
             )
@@ -338,7 +341,7 @@ class FastSLAM2:
         self,
         n_particles: int = 100,
         rng: np.random.Generator | None = None,
-        resample_threshold: float | None = None,
+        resample_threshold: float = 0.75,
         reject_gate: float = 4.0,
         augment_gate: float = 25.0,
         *,
@@ -401,10 +404,7 @@ class FastSLAM2:
         self._label_slot: dict[int, int] = {}
         self.n_resamples = 0
         self._valid_R: set[tuple] = set()
-        if config.resample_threshold is not None:
-            self._threshold = float(config.resample_threshold)
-        else:  # see FastSLAM2Config.resample_threshold
-            self._threshold = 0.0 if config.association == "known" else 0.75
+        self._threshold = float(config.resample_threshold)
         self._resample = (
             systematic_resample if config.resampler == "systematic" else stratified_resample
         )
