@@ -208,18 +208,25 @@ def _run_once(spec, filter_name, seed, estimator_params, sim_run) -> RunResult:
     if labels is not None and filter_name not in ("aekf", "aekf-submap", "aekf-robocentric"):
         labels = None
     # labels when the estimator keeps them; else a one-to-one assignment gated at 50 m
-    # (the line map's errors reach tens of metres; a tight gate would hide them)
-    le = landmark_errors(lm_est, run.landmarks, est_labels=labels, max_distance=50.0)
-    seen = np.unique(run.obs_label).size
-    md = landmark_mahalanobis(
-        lm_est[le.est_index], lm_cov[le.est_index], run.landmarks[le.true_index]
-    )
+    # (the line map's errors reach tens of metres; a tight gate would hide them), against
+    # the landmarks that were ever observed: a never-seen one cannot have an estimate, and
+    # matching a duplicate to it would hide the duplicate
+    seen_idx = np.unique(run.obs_label)
+    true_seen = run.landmarks[seen_idx]
+    seen_labels = None
+    if labels is not None:
+        pos = np.full(run.landmarks.shape[0], -1, dtype=np.int64)
+        pos[seen_idx] = np.arange(seen_idx.size)
+        seen_labels = np.where(np.asarray(labels) >= 0, pos[np.asarray(labels)], -1)
+    le = landmark_errors(lm_est, true_seen, est_labels=seen_labels, max_distance=50.0)
+    seen = seen_idx.size
+    md = landmark_mahalanobis(lm_est[le.est_index], lm_cov[le.est_index], true_seen[le.true_index])
     ate, hr = trajectory_rmse(run.true_poses, est_poses)
     return RunResult(
         seed=seed,
         filter=filter_name,
         landmark_rmse=le.rmse,
-        named_errors=named_landmark_errors(le, lm_est, run.landmarks, spec.named),
+        named_errors=named_landmark_errors(le, lm_est, true_seen, spec.named),
         ate=ate,
         heading_rmse=hr,
         time_s=elapsed,
