@@ -93,3 +93,49 @@ def test_cli_json(capsys):
     assert out["n_runs"] == 1 and out["dt_s"] == 0.025
     with pytest.raises(SystemExit):
         main(["slam-experiment", "line", "--dt", "0.05"])
+
+
+class _FixedMapEstimator:
+    """Stand-in estimator for the metric test: reports a given map and the true poses."""
+
+    name = "fixed"
+
+    def __init__(self, lm, poses):
+        self._lm, self._poses, self._i = lm, poses, -1
+
+    def predict(self, odometry):
+        self._i += 1
+
+    def update(self, observations):
+        from slam.estimators.base import UpdateResult
+
+        return UpdateResult(np.zeros(0, np.intp), np.zeros(0, bool), np.zeros(0))
+
+    def pose(self):
+        return self._poses[self._i].copy(), 0.01 * np.eye(3)
+
+    def landmarks(self):
+        return self._lm.copy(), np.broadcast_to(0.01 * np.eye(2), (self._lm.shape[0], 2, 2))
+
+
+def test_a_duplicate_near_a_never_seen_landmark_is_counted(monkeypatch):
+    """Known answer: a map holding every observed landmark exactly plus one copy of a seen
+    landmark moved next to a landmark that is never observed (column 19 of example_webmap).
+    The copy is a duplicate (1), not an estimate of the unseen landmark, and the RMSE over
+    the observed landmarks is 0."""
+    import slam.experiments.runner as runner
+    from slam.sim2d import simulate_run
+
+    spec = get_experiment("dense-loop", n_loops=1)
+    run = simulate_run(spec.map.landmarks, spec.map.waypoints, spec.sim, np.random.default_rng(0))
+    seen = np.unique(run.obs_label)
+    assert 19 not in seen
+    dup = spec.map.landmarks[19] + [3.0, 0.0]
+    lm = np.concatenate([spec.map.landmarks[seen], dup[None]])
+    monkeypatch.setattr(
+        runner, "make_estimator", lambda name, **kw: _FixedMapEstimator(lm, run.true_poses)
+    )
+    r = run_once(spec, "aekf", 0, sim_run=run)
+    assert r.n_duplicates == 1
+    assert r.landmark_rmse == pytest.approx(0.0, abs=1e-12)
+    assert r.n_missed == 0
