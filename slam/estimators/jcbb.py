@@ -119,6 +119,14 @@ def jcbb(
         return JCBBResult(pairs, 0.0, nis, 0, True)
     nu, S = _pair_covariance(x, P, z, R, obs, lms)
     limits = _chi2_limits(confidence, max(k, 1))
+    if np.unique(obs).size == obs.size and np.unique(lms).size == lms.size:
+        # one candidate per observation, each landmark once (most scans): if they are
+        # jointly compatible, that hypothesis is the only one of the largest size
+        w = np.linalg.solve(np.linalg.cholesky(S), nu)
+        d2 = float(w @ w)
+        if d2 < limits[obs.size - 1]:
+            pairs[obs] = lms
+            return JCBBResult(pairs, d2, nis, 1, True)
     # candidate pair ids of each observation, best individual NIS first (finds good
     # hypotheses early, so the bound prunes more)
     order = np.lexsort((nis[obs, lms], obs))
