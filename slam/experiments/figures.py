@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.collections import EllipseCollection
 
-__all__ = ["plot_map", "plot_nees"]
+__all__ = ["plot_map", "plot_nees", "plot_nees_curves"]
 
 
 def _ellipse_params(cov: np.ndarray, k: float):
@@ -82,23 +82,33 @@ def plot_map(run, true_landmarks, waypoints, path, *, title: str = "", named=Non
 
 def plot_nees(avg_nees, bounds, path, *, t=None, title: str = "", runs: int | None = None) -> Path:
     """Average vehicle-pose NEES over time with its two-sided 95 % χ² bounds."""
-    path = Path(path)
     avg = np.asarray(avg_nees, dtype=float)
-    t = np.arange(avg.size) if t is None else np.asarray(t)
+    inside = np.mean((avg >= bounds[0]) & (avg <= bounds[1]))
+    title = title or (
+        f"average NEES over {runs or '?'} runs; 95 % bounds [{bounds[0]:.2f}, {bounds[1]:.2f}], "
+        f"{100 * inside:.0f} % inside"
+    )
+    return plot_nees_curves({"average NEES": avg}, bounds, path, t=t, title=title)
+
+
+def plot_nees_curves(curves, bounds, path, *, t=None, title: str = "") -> Path:
+    """Several average-NEES curves ``{label: (S,) array}`` over time (s, or scan index when
+    ``t`` is None) on one log axis with the 95 % χ² bounds and the expectation n = 3:
+    e.g. the reference's AEKF against a consistent variant on the same runs."""
+    path = Path(path)
     fig, ax = plt.subplots(figsize=(8, 3.5), dpi=110)
-    ax.plot(t, avg, "-", color="k", lw=0.8, label="average NEES")
+    colors = ["k", "tab:orange", "tab:green", "tab:purple", "tab:brown"]
+    for i, (label, avg) in enumerate(curves.items()):
+        avg = np.asarray(avg, dtype=float)
+        x = np.arange(avg.size) if t is None else np.asarray(t)
+        ax.plot(x, avg, "-", color=colors[i % len(colors)], lw=0.8, label=label)
     for i, b in enumerate(bounds):
         ax.axhline(b, color="tab:red", ls="--", lw=1.0, label="95 % χ² bounds" if i == 0 else None)
     ax.axhline(3.0, color="tab:blue", ls=":", lw=1.0, label="expected (n = 3)")
     ax.set_yscale("log")
-    ax.set_xlabel("time [s]" if t is not None else "scan")
+    ax.set_xlabel("scan" if t is None else "time [s]")
     ax.set_ylabel("NEES")
-    inside = np.mean((avg >= bounds[0]) & (avg <= bounds[1]))
-    ax.set_title(
-        title
-        or f"average NEES over {runs or '?'} runs; 95 % bounds [{bounds[0]:.2f}, {bounds[1]:.2f}], "
-        f"{100 * inside:.0f} % inside"
-    )
+    ax.set_title(title)
     ax.legend(loc="upper left", fontsize=8)
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
