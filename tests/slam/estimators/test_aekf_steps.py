@@ -504,6 +504,12 @@ def test_iterated_update_is_the_ekf_update_when_the_step_is_linear(rng):
     np.testing.assert_array_equal(P1, P2)
 
 
+@pytest.mark.parametrize("gate", [-1.0, float("nan"), float("inf")])
+def test_bad_relinearize_gate_rejected(gate):
+    with pytest.raises(ValueError, match="relinearize_gate"):
+        AEKFSlam(iterations=5, relinearize_gate=gate)
+
+
 @pytest.mark.parametrize("bad", [0, -1, 1.5])
 def test_bad_iterations_rejected(bad):
     with pytest.raises(ValueError, match="iterations"):
