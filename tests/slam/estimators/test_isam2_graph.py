@@ -9,31 +9,14 @@ import pytest
 
 pytest.importorskip("gtsam", reason="iSAM2 baseline needs the undersea[baselines] extra")
 
+from slam_reference_models import R_DEFAULT
+from slam_reference_models import motion as _motion
+from slam_reference_models import num_jac as _num_jac
+from slam_reference_models import range_bearing as _h
+
 from slam.estimators.base import SlamEstimator
 from slam.estimators.isam2 import ISAM2SLAM
 from slam.types import Odometry, RangeBearing, wrap_angle
-
-R_DEFAULT = np.diag([0.1**2, np.deg2rad(1.0) ** 2])
-
-
-def _h(x, m):
-    d = m - x[:2]
-    return np.array([np.hypot(*d), wrap_angle(np.arctan2(d[1], d[0]) - x[2])])
-
-
-def _motion(x, u):
-    c, s = np.cos(x[2]), np.sin(x[2])
-    return np.array([x[0] + u[0] * c - u[1] * s, x[1] + u[0] * s + u[1] * c, x[2] + u[2]])
-
-
-def _num_jac(f, x, eps=1e-6):
-    f0 = f(x)
-    J = np.empty((f0.size, x.size))
-    for i in range(x.size):
-        dx = np.zeros_like(x)
-        dx[i] = eps
-        J[:, i] = (f(x + dx) - f(x - dx)) / (2 * eps)
-    return J
 
 
 def test_is_a_slam_estimator():
