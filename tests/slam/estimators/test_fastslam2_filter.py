@@ -7,7 +7,7 @@ the prediction; float64 underflow limits for the log-weight test.
 
 import numpy as np
 import pytest
-from slam_reference_models import R_DEFAULT
+from slam_reference_models import R_DEFAULT, WELL_SEPARATED_LANDMARKS, drive_well_separated
 from slam_reference_models import motion as _motion
 from slam_reference_models import num_jac as _num_jac
 from slam_reference_models import range_bearing as _h
@@ -170,32 +170,9 @@ def test_unknown_association_matches_well_separated_landmarks_without_duplicates
     the slot its first sighting created or be discarded between the gates (NIS in [4, 25],
     which a correct χ²₂ match does with probability e⁻² ≈ 13.5 %); never a wrong landmark,
     never a duplicate."""
-    rng = np.random.default_rng(3)
-    lms = np.array([[10.0, 0.0], [10.0, 10.0], [0.0, 12.0], [-8.0, 5.0]])
+    lms = WELL_SEPARATED_LANDMARKS
     f = FastSLAM2(n_particles=30, rng=np.random.default_rng(4))
-    first = {}
-    x = np.zeros(3)
-    Q = np.diag([0.02**2, 0.01**2, np.deg2rad(0.5) ** 2])
-    n_matched = n_discarded = 0
-    for step in range(30):
-        order = rng.permutation(len(lms))
-        obs = [
-            RangeBearing(_h(x, lms[i]) + rng.multivariate_normal(np.zeros(2), R_DEFAULT), R_DEFAULT)
-            for i in order
-        ]
-        res = f.update(obs)
-        for j, i in enumerate(order):
-            if step == 0:
-                assert res.new[j]
-                first[i] = res.associations[j]
-            else:
-                assert not res.new[j]
-                assert res.associations[j] in (first[i], -1)
-                n_matched += res.associations[j] == first[i]
-                n_discarded += res.associations[j] == -1
-        u = np.array([0.1, 0.0, 0.02])
-        x = _motion(x, u)
-        f.predict(Odometry(u + rng.multivariate_normal(np.zeros(3), Q), Q))
+    first, n_matched, n_discarded = drive_well_separated(f)
     assert n_discarded <= 0.25 * (n_matched + n_discarded)
     M, _ = f.landmarks()
     assert M.shape == (4, 2)

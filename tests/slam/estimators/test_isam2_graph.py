@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("gtsam", reason="iSAM2 baseline needs the undersea[baselines] extra")
 
-from slam_reference_models import R_DEFAULT
+from slam_reference_models import R_DEFAULT, WELL_SEPARATED_LANDMARKS, drive_well_separated
 from slam_reference_models import motion as _motion
 from slam_reference_models import num_jac as _num_jac
 from slam_reference_models import range_bearing as _h
@@ -120,29 +120,9 @@ def test_reobservation_matches_joint_ekf_update():
 def test_unknown_association_matches_well_separated_landmarks_without_duplicates():
     """As for FastSLAM: a re-observation is matched to its own landmark or discarded between
     the gates, never a wrong one and never duplicated."""
-    rng = np.random.default_rng(3)
-    lms = np.array([[10.0, 0.0], [10.0, 10.0], [0.0, 12.0], [-8.0, 5.0]])
+    lms = WELL_SEPARATED_LANDMARKS
     f = ISAM2SLAM()
-    first = {}
-    x = np.zeros(3)
-    Q = np.diag([0.02**2, 0.01**2, np.deg2rad(0.5) ** 2])
-    for step in range(30):
-        order = rng.permutation(len(lms))
-        obs = [
-            RangeBearing(_h(x, lms[i]) + rng.multivariate_normal(np.zeros(2), R_DEFAULT), R_DEFAULT)
-            for i in order
-        ]
-        res = f.update(obs)
-        for j, i in enumerate(order):
-            if step == 0:
-                assert res.new[j]
-                first[i] = res.associations[j]
-            else:
-                assert not res.new[j]
-                assert res.associations[j] in (first[i], -1)
-        u = np.array([0.1, 0.0, 0.02])
-        x = _motion(x, u)
-        f.predict(Odometry(u + rng.multivariate_normal(np.zeros(3), Q), Q))
+    first, _, _ = drive_well_separated(f)
     assert f.n_landmarks == 4
     M, _ = f.landmarks()
     assert np.all(np.linalg.norm(M[[first[i] for i in range(4)]] - lms, axis=1) < 0.3)
