@@ -5,6 +5,8 @@ Importable in every test as ``slam_reference_models`` (pytest ``pythonpath``).""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from slam.types import wrap_angle
@@ -16,6 +18,13 @@ def range_bearing(x, m):
     """``[r m, b rad]`` of landmark ``m (2,)`` seen from pose ``x = [x, y, phi]``."""
     d = m - x[:2]
     return np.array([np.hypot(*d), wrap_angle(np.arctan2(d[1], d[0]) - x[2])])
+
+
+def observe_state_landmark(x, j):
+    """``[r, b]`` of landmark ``j`` of an EKF-SLAM state ``x = [x, y, phi, x_1, y_1, ...]``
+    (bearing not wrapped)."""
+    d = x[3 + 2 * j : 5 + 2 * j] - x[:2]
+    return np.array([math.hypot(*d), math.atan2(d[1], d[0]) - x[2]])
 
 
 def motion(x, u):

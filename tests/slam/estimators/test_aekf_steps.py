@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from slam_reference_models import observe_state_landmark as _h
 
 from slam.estimators.aekf import (
     AEKFSlam,
@@ -44,11 +45,6 @@ def _random_state(rng, n=4, spread=20.0):
 def _f(xv, u):
     c, s = math.cos(xv[2]), math.sin(xv[2])
     return np.array([xv[0] + c * u[0] - s * u[1], xv[1] + s * u[0] + c * u[1], xv[2] + u[2]])
-
-
-def _h(x, i):
-    d = x[3 + 2 * i : 5 + 2 * i] - x[:2]
-    return np.array([math.hypot(*d), math.atan2(d[1], d[0]) - x[2]])
 
 
 def _num_jac(f, x, eps=1e-6):

@@ -11,16 +11,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import chi2
+from slam_reference_models import observe_state_landmark as _h
 
 from slam.estimators.aekf import AEKFSlam, association_scores
 from slam.estimators.jcbb import jcbb
 
 R = np.diag([0.1**2, math.radians(1.0) ** 2])
-
-
-def _h(x, j):
-    d = x[3 + 2 * j : 5 + 2 * j] - x[:2]
-    return np.array([math.hypot(*d), math.atan2(d[1], d[0]) - x[2]])
 
 
 def _dense_H(x, j):
