@@ -47,7 +47,7 @@ from .image import as_gray8
 from .kapur import kapur_threshold_hist
 from .otsu import gray_histogram, otsu_threshold, otsu_threshold_hist, power_law
 from .presets import SegmentationParams, get_preset
-from .regions import Region, RegionFilter, cc_stats, extract_regions, morphology_chain
+from .regions import Region, RegionFilter, cc_stats_compact, extract_regions, morphology_chain
 
 __all__ = [
     "METHODS",
@@ -157,21 +157,31 @@ def canny_edges(
     suppression and hysteresis with thresholds ``high · max|∇|`` and
     ``low_ratio · high · max|∇|`` (L2 magnitude).
 
+    ``binary`` is a bool or 0/1 ``uint8`` mask (any other numeric image is smoothed as
+    float32). A mask is smoothed straight from its bytes (separable float32 Gaussian, the
+    same kernel and arithmetic as ``cv2.GaussianBlur`` on its float copy) and the scaled
+    gradients are rounded by OpenCV (round half to even, as ``numpy.rint``): no
+    intermediate float copy of the mask, no NumPy passes.
+
     (Central differences would put the gradient maximum of a 2-pixel-wide spot on a
     two-pixel plateau, which OpenCV's strict diagonal non-maximum test removes entirely,
     so small speckle would go uncounted; the 2 × 2 difference has no such plateau.)
     """
-    f = np.asarray(binary, dtype=np.float32)
-    g = cv2.GaussianBlur(f, (ksize, ksize), sigma, borderType=cv2.BORDER_REPLICATE)
+    f = np.asarray(binary)
+    if f.dtype == np.bool_:
+        f = f.view(np.uint8)
+    elif f.dtype != np.uint8:
+        f = f.astype(np.float32)
+    k = cv2.getGaussianKernel(ksize, sigma, cv2.CV_32F)
+    g = cv2.sepFilter2D(f, cv2.CV_32F, k, k, borderType=cv2.BORDER_REPLICATE)
     dx = cv2.filter2D(g, cv2.CV_32F, _DIFF_X, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)
     dy = cv2.filter2D(g, cv2.CV_32F, _DIFF_Y, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)
-    mag = cv2.magnitude(dx, dy)
-    mmax = float(mag.max())
+    mmax = cv2.minMaxLoc(cv2.magnitude(dx, dy))[1]
     if mmax <= 0.0:
         return np.zeros(f.shape, dtype=np.uint8)
     scale = _GRAD_SCALE / mmax
-    dxi = np.rint(dx * scale).astype(np.int16)
-    dyi = np.rint(dy * scale).astype(np.int16)
+    dxi = cv2.multiply(dx, scale, dtype=cv2.CV_16S)
+    dyi = cv2.multiply(dy, scale, dtype=cv2.CV_16S)
     return cv2.Canny(dxi, dyi, low_ratio * high * _GRAD_SCALE, high * _GRAD_SCALE, L2gradient=True)
 
 
@@ -181,8 +191,18 @@ def count_small_contours(edges: np.ndarray, a_px: int) -> int:
     e = np.asarray(edges)
     if not e.any():
         return 0
-    _, _, stats, _ = cc_stats(e if e.dtype == np.uint8 else (e > 0).astype(np.uint8))
+    _, _, stats, _ = cc_stats_compact(e if e.dtype == np.uint8 else (e > 0).astype(np.uint8))
     return int(np.count_nonzero(stats[1:, cv2.CC_STAT_AREA] < a_px))
+
+
+def _above(y: np.ndarray, t: int) -> np.ndarray:
+    """``y > t`` as a 0/1 ``uint8`` mask in one OpenCV pass (``y`` uint8)."""
+    return cv2.threshold(y, int(t), 1, cv2.THRESH_BINARY)[1]
+
+
+def _as_bool(mask: np.ndarray) -> np.ndarray:
+    """A bool view of a 0/1 ``uint8`` mask (no copy); other masks are compared with 0."""
+    return mask.view(np.bool_) if mask.dtype == np.uint8 else mask.astype(bool, copy=False)
 
 
 def _resolve_params(params: SegmentationParams | str | None, shape) -> SegmentationParams:
@@ -225,8 +245,8 @@ def _finish(
         threshold_star=float(t_star),
         retriggered=retriggered,
         n_small_contours=n_a,
-        binary=binary.astype(bool, copy=False),
-        mask=mask.astype(bool),
+        binary=_as_bool(binary),
+        mask=_as_bool(mask),
         labels=labels,
         regions=regions,
         landmarks=landmarks,
@@ -277,7 +297,7 @@ def improved_otsu(
     if lo == hi:
         return _constant_result("improved-otsu", p, gray8, lo, region_filter)
     t = otsu_threshold(y)
-    b = y > t
+    b = _above(y, t)
     t1 = time.perf_counter()
     edges = canny_edges(b, p.canny_high, p.canny_low_ratio, p.gaussian_sigma, p.gaussian_ksize)
     n_a = count_small_contours(edges, p.a_px)
@@ -287,7 +307,7 @@ def improved_otsu(
     if retriggered:
         ts, _ = otsu_threshold_hist(gray_histogram(y), lo=t + 1) if t < 255 else (t, 0.0)
         t_star = ts if ts > t else t
-        b = y > t_star
+        b = _above(y, t_star)
     t3 = time.perf_counter()
     timing = {"threshold": (t1 - t_start) + (t3 - t2), "canny": t2 - t1}
     return _finish(
