@@ -7,7 +7,13 @@ FPR of the detections (positives + negatives), detections per positive / negativ
 negative tiles with any detection, and the summed confusion matrix [[TP FN] [FP TN]].
 
     python scripts/eval_sdvd.py [--data DIR] [--preset sdvd] [--filter sdvd|sdvd-contrast|sdvd-shadow|none]
-                                [--tol PX] [--json]
+                                [--detector sdvd-trusted|sdvd-rules|thesis] [--tol PX] [--json]
+
+PPV counts at most one true positive per effigy (effigies hit / detections); the thesis's
+fragment-counting PPV = TP / (TP + FP) is printed beside it as "PPVfrag". With
+``--detector`` every method runs as the first stage of that detection chain
+(``slam.frontend.segmentation.detector``: annotations masked, no-echo regions dropped,
+fragments merged, the same second stage), instead of ``--preset``/``--filter``.
 """
 
 from __future__ import annotations
@@ -28,7 +34,12 @@ from slam.frontend.segmentation import (  # noqa: E402
     get_preset,
     get_region_filter,
 )
-from slam.frontend.segmentation.evaluation import evaluate, load_sdvd  # noqa: E402
+from slam.frontend.segmentation.detector import DETECTORS, get_detector  # noqa: E402
+from slam.frontend.segmentation.evaluation import (  # noqa: E402
+    evaluate,
+    evaluate_detector,
+    load_sdvd,
+)
 
 
 def _f(v, nd=3) -> str:
@@ -67,6 +78,12 @@ def main(argv=None) -> int:
         "--tol", type=float, default=0.0, help="centroid tolerance px (0 = inside mask)"
     )
     ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument(
+        "--detector",
+        default=None,
+        choices=tuple(DETECTORS),
+        help="run each method as the first stage of this detection chain",
+    )
     ap.add_argument("--json", action="store_true")
     ap.add_argument(
         "--figure",
@@ -94,8 +111,16 @@ def main(argv=None) -> int:
         "test": [t for t in tiles if t.split == "test"],
         "all": tiles,
     }
+    detector = None if args.detector is None else get_detector(args.detector)
+
+    def run(ts, m):
+        if detector is not None:
+            return evaluate_detector(ts, detector.with_(method=m), tol_px=args.tol)
+        return evaluate(ts, m, params, region_filter, tol_px=args.tol)
+
     out = {
         "data": str(data),
+        "detector": args.detector,
         "preset": params.name,
         "a_px": params.a_px,
         "n_max": params.n_max,
@@ -107,10 +132,7 @@ def main(argv=None) -> int:
         out["splits"][name] = {
             "n_positive": sum(t.positive for t in ts),
             "n_negative": sum(not t.positive for t in ts),
-            "methods": {
-                m: evaluate(ts, m, params, region_filter, tol_px=args.tol).to_dict()
-                for m in methods
-            },
+            "methods": {m: run(ts, m).to_dict() for m in methods},
         }
     if args.figure:
         write_figure(Path(args.figure), splits["test"], params, region_filter, args.figure_tiles)
@@ -118,20 +140,25 @@ def main(argv=None) -> int:
     if args.json:
         print(json.dumps(out, indent=1))
         return 0
-    print(
-        f"SDVD effigy tiles: preset {params.name} (a={params.a_px}, N_max={params.n_max}), "
-        f"region filter {args.filter} {rf.to_dict()}, tolerance {args.tol} px"
-    )
+    if detector is not None:
+        print(f"SDVD effigy tiles: detector {args.detector}, tolerance {args.tol} px")
+    else:
+        print(
+            f"SDVD effigy tiles: preset {params.name} (a={params.a_px}, N_max={params.n_max}), "
+            f"region filter {args.filter} {rf.to_dict()}, tolerance {args.tol} px"
+        )
     for name, s in out["splits"].items():
         print(f"\n== {name}: {s['n_positive']} positive, {s['n_negative']} negative tiles ==")
         print(
-            f"{'method':14s} {'hit':>6s} {'PPV':>6s} {'FPR':>6s} {'det/pos':>8s} {'det/neg':>8s} "
-            f"{'neg w/det':>9s} {'ms':>6s}  [[TP FN] [FP TN]]"
+            f"{'method':14s} {'hit':>6s} {'hitHF':>6s} {'hitLF':>6s} {'PPV':>6s} {'PPVfrag':>7s} "
+            f"{'FPR':>6s} {'det/pos':>8s} {'det/neg':>8s} {'neg w/det':>9s} {'ms':>6s}  "
+            "[[TP FN] [FP TN]]"
         )
         for m, e in s["methods"].items():
             cm = e["confusion_matrix"]
             print(
-                f"{m:14s} {_f(e['hit_rate'])} {_f(e['ppv'])} {_f(e['fpr'])} "
+                f"{m:14s} {_f(e['hit_rate'])} {_f(e['hit_rate_hf'])} {_f(e['hit_rate_lf'])} "
+                f"{_f(e['ppv'])} {_f(e['ppv_fragments']):>7s} {_f(e['fpr'])} "
                 f"{_f(e['detections_per_positive_tile'], 2):>8s} "
                 f"{_f(e['detections_per_negative_tile'], 2):>8s} "
                 f"{e['negative_tiles_with_detections']:>4d}/{e['n_negative_tiles']:<4d} "

@@ -20,6 +20,12 @@ explicit:
   inside a true object's mask, or when it is within ``tol_px`` of a true object's
   centroid; TP counts such detections, FP the others;
 * FN = true objects matched by no detection; recall = matched objects / objects;
+* **one true positive per object** (:attr:`DetectionScore.ppv_object`): the thesis's
+  PPV = TP / (TP + FP) counts every detection inside an object, so an object broken into
+  five fragments gives five true positives. ``ppv_object`` = objects hit / detections
+  counts at most one per object; every further detection of an already matched object
+  counts as false (as in PASCAL VOC detection scoring). :attr:`DetectionScore.ppv` keeps
+  the thesis's fragment-counting figure (named ``ppv_fragments`` in the SDVD reports);
 * **candidates** — the non-object centroids of the real non-object row. By default (via
   :func:`score_result`) one method-independent pool per image: the 8-connected components
   with at least ``a`` pixels of the *traditional Otsu* segmentation of the same 8-bit
@@ -97,6 +103,17 @@ class DetectionScore:
         return _ratio(self.tp, self.tp + self.fp)
 
     @property
+    def ppv_object(self) -> float | None:
+        """objects hit / detections: at most one true positive per object (module
+        docstring); None without detections."""
+        return _ratio(self.objects_hit, self.n_detections)
+
+    @property
+    def duplicates(self) -> int:
+        """Detections inside an object that another detection already matched."""
+        return self.tp - self.objects_hit
+
+    @property
     def recall(self) -> float | None:
         """objects hit / objects; None without objects."""
         return _ratio(self.objects_hit, self.n_objects)
@@ -124,6 +141,8 @@ class DetectionScore:
             "tn": self.tn,
             "fpr": self.fpr,
             "ppv": self.ppv,
+            "ppv_object": self.ppv_object,
+            "duplicates": self.duplicates,
             "recall": self.recall,
             "images_with_objects": self.images_with_objects,
             "images_hit": self.images_hit,
