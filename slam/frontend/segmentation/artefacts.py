@@ -7,8 +7,11 @@ first-bottom-return edge of a side-scan waterfall.
   brightest, sit among seabed-level pixels, and an object's highlight has its acoustic
   shadow on one side only. So an annotation stroke pixel is a bright pixel (>= ``bright``)
   whose ``window × window`` neighbourhood is, apart from the bright pixels, mostly
-  (>= ``dark_fraction``) near-black (<= ``dark``); the annotation mask is those pixels
-  grown by ``grow_px`` (the box around the text). :func:`mask_annotations` replaces the
+  (>= ``dark_fraction``) near-black (<= ``dark``), with a near-black pixel within
+  ``flank_px`` on both sides along its row or along its column. The annotation mask is
+  those pixels grown by ``grow_px`` (the box around the text), keeping only grown
+  components holding at least ``min_stroke_px`` such pixels: text and tick lines have
+  dozens, a target lying in a dark shadow or on a black tile has a few. :func:`mask_annotations` replaces the
   masked pixels with the seabed level (median of the other non-zero pixels), so no
   threshold picks them up and no contrast ring sees them.
 * **No-echo areas.** Zero padding of tiles cut at the edge of a swath, and the water
@@ -17,26 +20,34 @@ first-bottom-return edge of a side-scan waterfall.
   one is an edge artefact (the bright rim of the first return, or speckle against black)
   rather than an object on the seabed.
 * **First-return edge of a waterfall** (:func:`first_return_edge_mask`): per ping and per
-  side, the first sample from nadir outward whose smoothed level reaches a fraction of
-  that side's seabed level; everything from nadir to that sample plus a margin is the
-  water column and its edge. The pipeline drops detections whose centroid falls inside
-  (the Scotsman XTF's symmetric "landmark" at ping 442 is this edge).
+  side, the first bottom return (the water-column detection of
+  :func:`slam.frontend.normalization.seabed_mask`, smoothed over pings); everything from
+  nadir to it plus a margin is the water column and its edge. The pipeline drops
+  detections whose centroid falls inside (:func:`drop_first_return_edge`; the Scotsman
+  XTF's symmetric "landmark" at ping 442 is this edge).
 
 All masks are ``(H, W)`` bool arrays in image pixels.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import cv2
 import numpy as np
 from scipy.ndimage import median_filter
+
+from slam.frontend.normalization import seabed_mask
+from slam.io.waterfall import Waterfall
 
 from .image import as_gray8
 from .regions import Region, cc_stats
 
 __all__ = [
     "annotation_mask",
+    "drop_first_return_edge",
     "first_return_edge_mask",
+    "first_return_samples",
     "mask_annotations",
     "no_echo_mask",
     "regions_outside",
@@ -50,6 +61,8 @@ def annotation_mask(
     dark: int = 30,
     window: int = 5,
     dark_fraction: float = 0.6,
+    flank_px: int = 3,
+    min_stroke_px: int = 20,
     grow_px: int = 5,
 ) -> np.ndarray:
     """Pixels of burned-in annotations (module docstring), ``(H, W)`` bool."""
@@ -67,10 +80,39 @@ def annotation_mask(
     n_dark = cv2.boxFilter(is_dark, cv2.CV_32F, k, normalize=False)
     n_other = window * window - n_bright
     core = is_bright.astype(bool) & (n_other >= window) & (n_dark >= dark_fraction * n_other)
-    if grow_px > 0 and core.any():
-        size = 2 * int(grow_px) + 1
-        core = cv2.dilate(core.view(np.uint8), np.ones((size, size), np.uint8)).view(bool)
-    return core
+    if core.any():
+        core &= _dark_on_both_sides(is_dark, flank_px)
+    if not core.any():
+        return core
+    return _with_enough_strokes(core, grow_px, min_stroke_px)
+
+
+def _with_enough_strokes(core: np.ndarray, grow_px: int, min_stroke_px: int) -> np.ndarray:
+    """``core`` grown by ``grow_px``, keeping only grown components that hold at least
+    ``min_stroke_px`` core pixels (text and tick lines; a few bright pixels of a target
+    lying in its own shadow are not enough)."""
+    size = 2 * int(grow_px) + 1
+    grown = cv2.dilate(core.view(np.uint8), np.ones((size, size), np.uint8))
+    _n, labels, _stats, _ = cc_stats(grown)
+    n_core = np.bincount(labels[core], minlength=int(labels.max()) + 1)
+    keep = n_core >= min_stroke_px
+    keep[0] = False
+    return np.take(keep.view(np.uint8), labels).view(bool)
+
+
+def _dark_on_both_sides(is_dark: np.ndarray, flank_px: int) -> np.ndarray:
+    """Pixels with a dark pixel within ``flank_px`` on both sides along the row or on both
+    sides along the column (a stroke drawn on black, not a highlight beside a shadow)."""
+    one_side = np.zeros(2 * flank_px + 1, np.float32)
+    one_side[:flank_px] = 1.0  # offsets −flank..−1 (filter2D correlates)
+    before = one_side[None, :]
+    after = one_side[::-1][None, :].copy()
+    out = np.zeros(is_dark.shape, bool)
+    for kb, ka in ((before, after), (before.T.copy(), after.T.copy())):
+        b = cv2.filter2D(is_dark, cv2.CV_8U, kb, borderType=cv2.BORDER_CONSTANT) > 0
+        a = cv2.filter2D(is_dark, cv2.CV_8U, ka, borderType=cv2.BORDER_CONSTANT) > 0
+        out |= b & a
+    return out
 
 
 def mask_annotations(gray8: np.ndarray, **kwargs) -> tuple[np.ndarray, np.ndarray]:
@@ -121,52 +163,79 @@ def regions_outside(
     return tuple(r for r in regions if not hit[r.label])
 
 
-def first_return_edge_mask(
-    waterfall: np.ndarray,
-    *,
-    fraction: float = 0.5,
-    smooth_samples: int = 9,
-    smooth_pings: int = 5,
-    margin_samples: int = 8,
+def first_return_samples(
+    waterfall: Waterfall, *, smooth_pings: int = 5, smooth: int = 15, fraction: float = 0.25
 ) -> np.ndarray:
-    """Water column and first-bottom-return edge of a side-scan waterfall, bool mask.
+    """``(pings, 2)`` first-bottom-return sample index counted from nadir, port and
+    starboard: :func:`slam.frontend.normalization.seabed_mask` per ping (leading
+    transmit/saturated samples skipped; ``smooth`` and ``fraction`` are its parameters),
+    then a running median over ``smooth_pings`` pings (a single noisy ping does not move
+    the edge)."""
+    if int(smooth_pings) != smooth_pings or smooth_pings < 1:
+        raise ValueError(f"smooth_pings={smooth_pings!r}: must be an integer >= 1")
+    s = waterfall.samples_per_side
+    water = ~seabed_mask(waterfall, smooth=smooth, fraction=fraction)
+    first = np.column_stack([water[:, :s].sum(axis=1), water[:, s:].sum(axis=1)])
+    if smooth_pings > 1 and first.shape[0] >= smooth_pings:
+        first = median_filter(first, size=(int(smooth_pings), 1), mode="nearest")
+    return first
 
-    waterfall : (pings, 2 × samples) intensities, port on the left (far range at column
-        0, nadir in the middle), starboard on the right (the field's display layout).
-    fraction  : the bottom is reached where the smoothed level first reaches this fraction
-        of the side's seabed level (median over the ping's outer half of that side).
-    smooth_samples, smooth_pings : box smoothing along range and along track before the
-        search (speckle), and a running median of the found edge over ``smooth_pings``.
-    margin_samples : samples past the found edge still masked (the bright rim).
 
-    Returns a ``(pings, 2 × samples)`` bool mask: True from nadir out to the edge plus the
-    margin on both sides. A ping side that never reaches the level is masked whole.
+def first_return_edge_mask(
+    waterfall: Waterfall,
+    *,
+    margin_fraction: float = 0.3,
+    min_margin_samples: int = 8,
+    smooth_pings: int = 5,
+) -> np.ndarray:
+    """Water column and first-bottom-return edge of a side-scan waterfall, ``(pings,
+    2 × samples)`` bool (port on the left, nadir in the middle): True from nadir out to
+    the first return ``r`` (:func:`first_return_samples`) plus a margin of
+    ``max(min_margin_samples, margin_fraction · r)`` samples — the bright rim of the first
+    return is as wide as the beam's footprint at nadir, which grows with the altitude,
+    hence a margin proportional to ``r``.
+
+    A detection whose centroid lies inside is the edge, not an object on the seabed
+    (:func:`drop_first_return_edge`). Objects standing tall (a wreck's superstructure)
+    can return before the seabed does; they are masked too, so keep ``margin_fraction``
+    small.
     """
-    w = np.asarray(waterfall, dtype=np.float32)
-    if w.ndim != 2 or w.shape[1] < 4 or w.shape[1] % 2:
-        raise ValueError(f"waterfall: shape {w.shape}, need (pings, 2 × samples) with samples >= 2")
-    if not np.isfinite(w).all():
-        raise ValueError("waterfall: contains NaN or inf")
-    if not 0.0 < fraction < 1.0:
-        raise ValueError(f"fraction={fraction!r}: must be in (0, 1)")
-    n_ping, n_col = w.shape
-    half = n_col // 2
-    mask = np.zeros(w.shape, bool)
-    sm = cv2.blur(
-        w, (max(1, smooth_samples), max(1, smooth_pings)), borderType=cv2.BORDER_REPLICATE
-    )
-    for side in (0, 1):
-        # columns ordered from nadir outward
-        s = sm[:, :half][:, ::-1] if side == 0 else sm[:, half:]
-        seabed = np.median(s[:, half // 2 :], axis=1)
-        reached = s >= (fraction * seabed)[:, None]
-        first = np.where(reached.any(axis=1), reached.argmax(axis=1), half)
-        if smooth_pings > 1 and n_ping >= smooth_pings:
-            first = median_filter(first, size=smooth_pings, mode="nearest")
-        edge = np.minimum(first + int(margin_samples), half)
-        inside = np.arange(half)[None, :] < edge[:, None]
-        if side == 0:
-            mask[:, :half] = inside[:, ::-1]
-        else:
-            mask[:, half:] = inside
-    return mask
+    if not 0.0 <= margin_fraction <= 1.0:
+        raise ValueError(f"margin_fraction={margin_fraction!r}: must be in [0, 1]")
+    if int(min_margin_samples) != min_margin_samples or min_margin_samples < 0:
+        raise ValueError(f"min_margin_samples={min_margin_samples!r}: must be an integer >= 0")
+    s = waterfall.samples_per_side
+    first = first_return_samples(waterfall, smooth_pings=smooth_pings)
+    edge = first + np.maximum(min_margin_samples, np.ceil(margin_fraction * first)).astype(int)
+    from_nadir = np.arange(s)[None, :]
+    port = from_nadir < edge[:, :1]
+    stbd = from_nadir < edge[:, 1:]
+    return np.hstack([port[:, ::-1], stbd])
+
+
+def drop_first_return_edge(
+    detections: Sequence, waterfall: Waterfall, ping_index: np.ndarray | None = None, **kwargs
+) -> list:
+    """The detections (objects with ``ping``, ``side`` = "port"/"starboard" and
+    ``slant_range`` in m) whose centroid is not on the first-return edge of ``waterfall``
+    (:func:`first_return_edge_mask`, ``kwargs`` passed on). ``ping_index[d.ping]`` is the
+    waterfall row of a detection (default: ``d.ping`` itself)."""
+    dets = list(detections)
+    if not dets:
+        return dets
+    mask = first_return_edge_mask(waterfall, **kwargs)
+    s = waterfall.samples_per_side
+    rows = np.arange(waterfall.n_pings) if ping_index is None else np.asarray(ping_index)
+    kept = []
+    for d in dets:
+        if d.side not in ("port", "starboard"):
+            raise ValueError(f"detection side={d.side!r}: need 'port' or 'starboard'")
+        k = int(rows[d.ping])
+        rng = float(waterfall.slant_range_m[k])
+        if not np.isfinite(rng) or rng <= 0:
+            raise ValueError(f"waterfall.slant_range_m[{k}]={rng!r}: need a range > 0 m")
+        sample = min(int(d.slant_range / rng * s), s - 1)
+        col = s - 1 - sample if d.side == "port" else s + sample
+        if not mask[k, col]:
+            kept.append(d)
+    return kept

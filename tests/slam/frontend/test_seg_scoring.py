@@ -106,3 +106,18 @@ def test_bad_detections_and_tolerance():
         score_detections(np.array([[np.nan, 1.0]]), m)
     with pytest.raises(ValueError, match=r"\(n, 2\)"):
         score_detections(np.zeros((3, 3)), m)
+
+
+def test_ppv_object_counts_one_true_positive_per_object():
+    """Three fragments inside object A, one inside B, one outside: the fragment-counting
+    PPV is 4/5, one true positive per object gives 2/5 (A and B hit), 2 duplicates."""
+    m = two_objects()
+    dets = np.array([[7.0, 7.0], [9.0, 9.0], [12.0, 12.0], [45.0, 34.0], [2.0, 45.0]])
+    s = score_detections(dets, m)
+    assert (s.tp, s.fp, s.objects_hit) == (4, 1, 2)
+    assert s.ppv == pytest.approx(4 / 5)
+    assert s.ppv_object == pytest.approx(2 / 5)
+    assert s.duplicates == 2
+    merged = score_detections(dets, m, merge_components=True)  # one object: the whole mask
+    assert merged.ppv_object == pytest.approx(1 / 5) and merged.duplicates == 3
+    assert score_detections(np.zeros((0, 2)), m).ppv_object is None
