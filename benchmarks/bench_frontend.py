@@ -3,7 +3,9 @@ the same Algorithm 2 morphology chain) on synthetic speckled side-scan-like imag
 reference's three sizes, and on the real SDVD tiles when ../shared/data is present.
 
 Targets (issue 4): improved Otsu incl. Canny and morphology <= 15 ms on 800×800 and
-<= 60 ms on 1920×932. The reference's MATLAB timings (thesis tables 3.4, 3.7, 3.10) are
+<= 60 ms on 1920×932. Issue 16 item 3: the improved Otsu front end >= 2× the
+pre-rewrite implementation (``tests/helpers/legacy_segmentation.py``, same outputs),
+measured in the same run, interleaved call by call ("old_vs_new"). The reference's MATLAB timings (thesis tables 3.4, 3.7, 3.10) are
 printed beside ours, and the ratio improved Otsu / plain Otsu is measured in the same run
 (MATLAB: 4.9× on 800×800).
 
@@ -24,7 +26,10 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from slam.frontend.segmentation import METHODS, get_preset, segment  # noqa: E402
+from slam.frontend.segmentation import METHODS, get_preset, improved_otsu, segment  # noqa: E402
+
+sys.path.insert(0, str(REPO / "tests" / "helpers"))
+from legacy_segmentation import legacy_improved_otsu  # noqa: E402
 
 #: (label, (rows, cols), preset, reference MATLAB seconds per method, target ms for improved Otsu)
 SIZES = (
@@ -118,6 +123,30 @@ def time_method(img, method, params, repeats: int) -> tuple[float, float, dict]:
     return 1e3 * float(np.median(wall)), 1e3 * float(np.median(cpu)), stages
 
 
+def old_vs_new(img: np.ndarray, params, repeats: int) -> dict:
+    """Median process-CPU ms of the pre-rewrite improved Otsu pipeline (threshold, Canny,
+    N_a, re-threshold, Algorithm 2, regions) and of today's, called alternately in one
+    run, and their ratio (old / new; the issue-16 goal is >= 2)."""
+    legacy_improved_otsu(img, params)
+    improved_otsu(img, params)
+    old, new = [], []
+    for _ in range(repeats):
+        c0 = time.process_time()
+        legacy_improved_otsu(img, params)
+        c1 = time.process_time()
+        improved_otsu(img, params)
+        c2 = time.process_time()
+        old.append(c1 - c0)
+        new.append(c2 - c1)
+    o, n = float(np.median(old)), float(np.median(new))
+    return {
+        "old_ms": round(1e3 * o, 3),
+        "new_ms": round(1e3 * n, 3),
+        "ratio": round(o / n, 2),
+        "goal_ratio": 2.0,
+    }
+
+
 def real_tiles(limit: int):
     try:
         sys.path.insert(0, str(REPO / "tests"))
@@ -186,6 +215,7 @@ def main(argv=None) -> int:
             "matlab_reference_ms": {k: round(v * 1e3, 1) for k, v in matlab_s.items()},
             "matlab_improved_over_plain": round(matlab_s["improved-otsu"] / matlab_s["otsu"], 2),
         }
+        entry["old_vs_new"] = old_vs_new(img, params, args.repeats)
         if target is not None:
             entry["target_ms_improved_otsu"] = target
             entry["meets_target"] = per["improved-otsu"] <= target
@@ -225,6 +255,12 @@ def main(argv=None) -> int:
             line += f";  target <= {e['target_ms_improved_otsu']:.0f} ms: {'met' if e['meets_target'] else 'MISSED'}"
         print(line)
         print(f"  improved Otsu stages (ms): {e['improved_otsu_stages_ms']}")
+        ov = e["old_vs_new"]
+        print(
+            f"  improved Otsu, pre-rewrite vs today (same outputs, interleaved): "
+            f"{ov['old_ms']:.2f} -> {ov['new_ms']:.2f} ms = {ov['ratio']:.2f}x "
+            f"(goal >= {ov['goal_ratio']:.0f}x; load average {out['load_average_1min']})"
+        )
     if "sdvd_tiles_256x256" in out:
         e = out["sdvd_tiles_256x256"]
         print(f"== real SDVD tiles 256x256 ({e['n_tiles']} tiles, preset sdvd) ==")

@@ -170,11 +170,11 @@ def fit_region_classifier(
 #: Second stage trained on the tune half of the SDVD tiles (improved Otsu regions after
 #: stages 1–4 of ``"sdvd-trusted"``) by ``scripts/train_sdvd_stage2.py``.
 SDVD_STAGE2 = RegionClassifier(
-    mean=(4.51154, 0.636699, 1.840712, 0.244563, 0.593097, 0.65427, 4.48222),
-    scale=(0.846844, 0.458421, 1.246591, 0.172208, 0.390159, 0.169715, 0.467035),
-    weights=(1.312154, -0.675035, 1.584394, -0.330272, -0.254976, 0.282727, -0.715262),
-    bias=-3.309483,
-    threshold=0.2,
+    mean=(4.513293, 0.632526, 1.86834, 0.251753, 0.591564, 0.656232, 4.484185),
+    scale=(0.853353, 0.467223, 1.323338, 0.182463, 0.393202, 0.170458, 0.469882),
+    weights=(1.040176, -0.915675, 1.639765, -0.603978, -0.409389, -0.181854, -0.936288),
+    bias=-3.276740,
+    threshold=0.15,
 )
 
 
