@@ -1,7 +1,15 @@
 """Segmentation and landmarks: the reference's improved Otsu TSM, the baseline threshold
-methods, the morphology chain (Algorithm 2), region landmarks and scoring against ground
-truth masks. See the submodules' docstrings for the definitions."""
+methods, the morphology chain (Algorithm 2), region landmarks, artefact suppression,
+fragment merging, the detection chain with its learned second stage, and scoring against
+ground truth masks. See the submodules' docstrings for the definitions."""
 
+from .artefacts import (
+    annotation_mask,
+    drop_first_return_edge,
+    first_return_edge_mask,
+    mask_annotations,
+    no_echo_mask,
+)
 from .detection_filters import (
     FAR_RANGE,
     DetectionFilter,
@@ -11,6 +19,8 @@ from .detection_filters import (
     shadow_dark_level,
     shadow_fraction,
 )
+from .detector import DETECTORS, DetectorConfig, RegionClassifier, detect, get_detector
+from .fragments import merge_fragments
 from .image import as_gray8, as_mask, load_gray8, load_mask
 from .kapur import kapur_entropy_curve, kapur_threshold, kapur_threshold_hist
 from .methods import (
@@ -51,16 +61,20 @@ from .scoring import (
 )
 
 __all__ = [
+    "DETECTORS",
     "FAR_RANGE",
     "METHODS",
     "PRESETS",
     "REGION_FILTERS",
     "DetectionFilter",
     "DetectionScore",
+    "DetectorConfig",
     "Region",
+    "RegionClassifier",
     "RegionFilter",
     "SegmentationParams",
     "SegmentationResult",
+    "annotation_mask",
     "apply_detection_filter",
     "as_gray8",
     "as_mask",
@@ -69,8 +83,12 @@ __all__ = [
     "candidate_centroids",
     "canny_edges",
     "count_small_contours",
+    "detect",
+    "drop_first_return_edge",
     "extract_regions",
     "fill_holes",
+    "first_return_edge_mask",
+    "get_detector",
     "get_preset",
     "get_region_filter",
     "gray_histogram",
@@ -80,8 +98,11 @@ __all__ = [
     "kapur_threshold_hist",
     "load_gray8",
     "load_mask",
+    "mask_annotations",
     "match_centroids",
+    "merge_fragments",
     "morphology_chain",
+    "no_echo_mask",
     "otsu_candidates",
     "otsu_threshold",
     "otsu_threshold_hist",
