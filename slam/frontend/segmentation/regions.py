@@ -287,28 +287,56 @@ def morphology_chain(mask: np.ndarray, a_px: int, dilate_iterations: int = 1) ->
     return fill_holes(m)
 
 
+#: up to this many regions, second moments are summed inside each bounding box
+_FEW_REGIONS = 64
+
+
+def _second_moments_by_region(labels, stats, cx, cy, n):
+    """Per-label sums of dx², dy², dx·dy about the centroid, each label's pixels taken in
+    raster order inside its bounding box: the same values in the same summation order as
+    one ``np.bincount`` over the whole image (bit-identical), without a pass over it."""
+    out = np.zeros((3, n))
+    for k in range(1, n):
+        x0, y0, w, h = (int(v) for v in stats[k, :4])
+        rr, cc = np.nonzero(labels[y0 : y0 + h, x0 : x0 + w] == k)
+        dx = (cc + x0) - cx[k]
+        dy = (rr + y0) - cy[k]
+        zero = np.zeros(dx.size, dtype=np.intp)
+        out[0, k] = np.bincount(zero, weights=dx * dx, minlength=1)[0]
+        out[1, k] = np.bincount(zero, weights=dy * dy, minlength=1)[0]
+        out[2, k] = np.bincount(zero, weights=dx * dy, minlength=1)[0]
+    return out[0], out[1], out[2]
+
+
 def extract_regions(mask: np.ndarray) -> tuple[tuple[Region, ...], np.ndarray]:
     """Step 5: the 8-connected regions of ``mask`` and the (H, W) int32 label image.
 
     Area, centroid and bounding box come from OpenCV; the second moments (axis lengths)
-    from per-label sums over the foreground pixels (vectorized with ``np.bincount``).
+    from per-label sums over the foreground pixels (``np.bincount`` over the image, or
+    inside each bounding box when there are few regions — the same sums).
     """
     m = _as_u8(mask)
     n, labels, stats, centroids = cc_stats(m)
     if n <= 1:
         return (), labels
-    flat = np.flatnonzero(m)
-    lab = labels.ravel()[flat]
-    rows, cols = np.divmod(flat, m.shape[1])
     area = stats[:, cv2.CC_STAT_AREA].astype(np.float64)
     area_div = np.maximum(area, 1.0)  # label 0 (background) may be empty
     cx = centroids[:, 0]
     cy = centroids[:, 1]
-    dx = cols - cx[lab]
-    dy = rows - cy[lab]
-    sxx = np.bincount(lab, weights=dx * dx, minlength=n) / area_div
-    syy = np.bincount(lab, weights=dy * dy, minlength=n) / area_div
-    sxy = np.bincount(lab, weights=dx * dy, minlength=n) / area_div
+    if n - 1 <= _FEW_REGIONS:
+        sxx, syy, sxy = _second_moments_by_region(labels, stats, cx, cy, n)
+    else:
+        flat = np.flatnonzero(m)
+        lab = labels.ravel()[flat]
+        rows, cols = np.divmod(flat, m.shape[1])
+        dx = cols - cx[lab]
+        dy = rows - cy[lab]
+        sxx = np.bincount(lab, weights=dx * dx, minlength=n)
+        syy = np.bincount(lab, weights=dy * dy, minlength=n)
+        sxy = np.bincount(lab, weights=dx * dy, minlength=n)
+    sxx = sxx / area_div
+    syy = syy / area_div
+    sxy = sxy / area_div
     half_tr = 0.5 * (sxx + syy)
     disc = np.sqrt(np.maximum(0.25 * (sxx - syy) ** 2 + sxy**2, 0.0))
     lam1 = half_tr + disc

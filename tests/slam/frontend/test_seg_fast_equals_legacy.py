@@ -16,6 +16,7 @@ from slam.frontend.segmentation import (
     bridge,
     canny_edges,
     count_small_contours,
+    extract_regions,
     fill_holes,
     get_preset,
     improved_otsu,
@@ -59,6 +60,28 @@ def test_stages_same_as_legacy_on_random_masks(density, rng):
     assert np.array_equal(remove_small_components(m, 5), legacy.remove_small_components(m, 5))
     assert np.array_equal(bridge(m), legacy.bridge(m))
     assert np.array_equal(fill_holes(m), legacy.fill_holes(m))
+    regions, labels = extract_regions(m)  # many regions: the whole-image moment sums
+    ref_regions, ref_labels = legacy.extract_regions(m)
+    assert regions == ref_regions and np.array_equal(labels, ref_labels)
+
+
+def test_few_regions_moments_bit_identical(rng):
+    """Up to 64 regions the second moments are summed per bounding box: the same floats
+    as the whole-image sums (blobs of random shapes, some touching the border)."""
+    m = np.zeros((300, 400), bool)
+    for _ in range(30):
+        r, c = rng.integers(0, 290), rng.integers(0, 390)
+        m[r : r + rng.integers(2, 30), c : c + rng.integers(2, 30)] |= rng.random() < 0.9
+    m &= rng.random(m.shape) < 0.85
+    regions, _ = extract_regions(m)
+    assert 0 < len(regions) <= 64
+    assert regions == legacy.extract_regions(m)[0]
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.float32, np.float64])
+def test_canny_same_as_legacy_on_grey_images(dtype, rng):
+    img = (rng.random((120, 90)) * 255).astype(dtype)
+    assert np.array_equal(canny_edges(img, 0.2), legacy.canny_edges(img, 0.2))
 
 
 def test_count_small_contours_many_labels_falls_back_to_int32():
