@@ -2,7 +2,8 @@
 
 Slant-range correction (flat seabed): a sample at slant range r from a sonar at altitude h
 lies at ground range g = √(r² − h²); samples with r < h are the water column and are
-dropped. The corrected waterfall is resampled onto ground-range bins of ``ground_res_m``
+dropped, and so are the zeros readers pad shorter pings with at far range. The corrected
+waterfall is resampled onto ground-range bins of ``ground_res_m``
 by linear interpolation in slant range (one vectorized ``map_coordinates`` call).
 
 Mosaic: every ground-range bin of every ping is placed in a projected frame (metres east,
@@ -73,8 +74,11 @@ def slant_range_correct(
     col = np.where(inside, np.clip(col, 0, s - 1), 0)
     out = []
     for side in (wf.port, wf.starboard):  # near range first
+        # trailing zeros are the readers' far-range padding of shorter pings: no data
+        last = s - 1 - np.argmax(side[:, ::-1] != 0, axis=1)
+        valid = inside & (col <= last[:, None])
         v = map_coordinates(side, [rows, col], order=1, mode="nearest").astype(np.float32)
-        out.append(np.where(inside, v, np.nan).astype(np.float32))
+        out.append(np.where(valid, v, np.nan).astype(np.float32))
     image = np.concatenate([out[0][:, ::-1], out[1]], axis=1)
     return GroundRangeImage(image=image, ground_res_m=res)
 
@@ -174,6 +178,6 @@ def grid_mosaic(
     mean[hit] = (total[hit] / count[hit]).astype(np.float32)
     s3 = uniform_filter(np.where(hit, mean, 0.0).astype(np.float64), size=3, mode="constant")
     c3 = uniform_filter(hit.astype(np.float64), size=3, mode="constant")
-    fill = ~hit & (c3 > 0)
+    fill = ~hit & (c3 > 0.5 / 9)  # at least one of the 9 (guards round-off of the running sum)
     mean[fill] = (s3[fill] / c3[fill]).astype(np.float32)
     return Mosaic(image=mean, west_m=float(west), north_m=float(north), cell_m=float(cell_m), crs=crs)
