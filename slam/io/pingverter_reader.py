@@ -52,7 +52,55 @@ def humminbird_dat_path(path: Path) -> Path:
     )
 
 
-def _parse_headers(path: Path, fmt: str, work: str):
+#: Lowrance frame headers: byte offset of the u16 ``frame_size`` and the header size.
+_LOWRANCE_FRAME = {".sl2": (28, 144), ".sl3": (8, 168)}
+_LOWRANCE_FILE_HEADER = 8
+
+
+def _lowrance_intact_prefix(path: Path, work: str) -> Path:
+    """``path`` itself when its frame chain ends exactly at the end of the file; otherwise
+    a copy (in ``work``) of the whole frames before the cut, with a warning. pingverter
+    reads a cut Lowrance frame header as a numpy error and loses the whole file."""
+    size_at, head = _LOWRANCE_FRAME.get(path.suffix.lower(), (28, 144))
+    n_bytes = path.stat().st_size
+    if n_bytes < _LOWRANCE_FILE_HEADER + head:
+        raise RecordingError(
+            f"{path}: not a Lowrance recording ({n_bytes} bytes: shorter than the file "
+            f"header and one {head}-byte frame header)"
+        )
+    data = np.memmap(path, dtype=np.uint8, mode="r")
+    version = int(data[0]) | int(data[1]) << 8
+    if version not in (2, 3):
+        raise RecordingError(
+            f"{path}: not a Lowrance SL2/SL3 recording (file header format field {version}, "
+            "expected 2 for SL2 or 3 for SL3)"
+        )
+    i, frames = _LOWRANCE_FILE_HEADER, 0
+    while i + head <= n_bytes:
+        frame = int(data[i + size_at]) | int(data[i + size_at + 1]) << 8
+        if frame < head or i + frame > n_bytes:
+            break
+        i += frame
+        frames += 1
+    if i == n_bytes:
+        return path
+    if frames == 0:
+        raise RecordingError(
+            f"{path}: not a Lowrance recording or truncated before its first frame "
+            f"(first frame header gives {frame} bytes)"
+        )
+    warnings.warn(
+        f"{path}: truncated lowrance recording: kept {frames} whole frames "
+        f"({i} of {n_bytes} bytes), dropped the cut frame after them",
+        TruncatedRecordingWarning,
+        stacklevel=3,
+    )
+    trimmed = Path(work) / ("intact" + path.suffix)
+    trimmed.write_bytes(bytes(data[:i]))
+    return trimmed
+
+
+def _parse_headers(path: Path, fmt: str, work: str, source: Path):
     """Run pingverter's header decoder, silenced; any failure becomes RecordingError."""
     import joblib
     import pingverter
@@ -76,23 +124,26 @@ def _parse_headers(path: Path, fmt: str, work: str):
     except (Exception, SystemExit) as exc:  # pingverter signals bad input in many ways
         detail = str(exc).strip().splitlines()[-1:] or [type(exc).__name__]
         raise RecordingError(
-            f"{path}: not a readable {fmt} side-scan recording (pingverter: "
+            f"{source}: not a readable {fmt} side-scan recording (pingverter: "
             f"{type(exc).__name__}: {detail[0][:200]})"
         ) from None
 
 
-def _beam_table(obj, work: str, beam: str, path: Path, fmt: str):
+def _beam_table(obj, work: str, beam: str, path: Path, fmt: str, source: Path):
+    """pingverter's table of one beam, in time order, and the file holding its samples."""
     import pandas as pd
 
     meta = os.path.join(work, "meta")
     csvs = sorted(Path(meta).glob(f"{beam}_*_meta.csv")) if os.path.isdir(meta) else []
     if not csvs:
         side = "port" if beam == _PORT else "starboard"
-        raise RecordingError(f"{path}: the {fmt} recording has no {side} side-scan beam ({beam})")
+        raise RecordingError(
+            f"{source}: the {fmt} recording has no {side} side-scan beam ({beam})"
+        )
     df = pd.read_csv(csvs[0])
     for col in ("index", "son_offset", "ping_cnt"):
         if col not in df.columns:
-            raise RecordingError(f"{path}: pingverter gave no {col!r} for beam {beam}")
+            raise RecordingError(f"{source}: pingverter gave no {col!r} for beam {beam}")
     sort_cols = [c for c in ("time_s", "record_num") if c in df.columns]
     if sort_cols:
         df = df.sort_values(sort_cols, kind="mergesort").reset_index(drop=True)
@@ -137,6 +188,19 @@ def _col(df, name: str, scale: float = 1.0) -> np.ndarray:
     return pd.to_numeric(df[name], errors="coerce").to_numpy(dtype=np.float64) * scale
 
 
+def _frequency_label_khz(obj, df) -> np.ndarray:
+    """(n,) kHz from pingverter's Lowrance frequency labels (``"455kHz"``; a band
+    ``"130kHz_210kHz"`` gives its centre), matched by ``record_num``; nan when absent.
+    pingverter 2.1 leaves its numeric ``f`` at -1 for Lowrance (its lookup keys are the
+    labels but it looks up the integer codes)."""
+    hd = getattr(obj, "header_dat", None)
+    if hd is None or "frequency" not in hd.columns or "record_num" not in df.columns:
+        return np.full(len(df), np.nan)
+    labels = hd.set_index("record_num")["frequency"].reindex(df["record_num"]).astype(str)
+    parts = labels.str.findall(r"(\d+(?:\.\d+)?)kHz")
+    return np.array([np.mean([float(v) for v in x]) if x else np.nan for x in parts])
+
+
 def read_pingverter(path: str | Path, fmt: str) -> SidescanRecording:
     """Read a Humminbird (``.DAT``/``.SON``), Lowrance (``.sl2``/``.sl3``), Garmin
     (``.rsd``) or EdgeTech (``.jsf``) recording; see the module docstring."""
@@ -146,21 +210,22 @@ def read_pingverter(path: str | Path, fmt: str) -> SidescanRecording:
     if fmt == "humminbird":
         path = humminbird_dat_path(path)
     with tempfile.TemporaryDirectory(prefix="undersea-pingverter-") as work:
-        obj = _parse_headers(path, fmt, work)
-        port_df, port_file = _beam_table(obj, work, _PORT, path, fmt)
-        stbd_df, stbd_file = _beam_table(obj, work, _STBD, path, fmt)
-    n = min(len(port_df), len(stbd_df))
-    if n == 0:
-        raise RecordingError(f"{path}: the {fmt} recording holds no side-scan pings")
-    port_df, stbd_df = port_df.iloc[:n], stbd_df.iloc[:n]
-    dtype = _sample_dtype(obj, port_df)
-    sides, complete = [], np.ones(n, dtype=bool)
-    for df, file in ((port_df, port_file), (stbd_df, stbd_file)):
-        off = (_col(df, "index") + _col(df, "son_offset")).astype(np.int64)
-        cnt = _col(df, "ping_cnt").astype(np.int64)
-        samples, ok = gather_samples(file, off, cnt, dtype)
-        sides.append(samples)
-        complete &= ok
+        parse = _lowrance_intact_prefix(path, work) if fmt == "lowrance" else path
+        obj = _parse_headers(parse, fmt, work, path)
+        port_df, port_file = _beam_table(obj, work, _PORT, parse, fmt, path)
+        stbd_df, stbd_file = _beam_table(obj, work, _STBD, parse, fmt, path)
+        n = min(len(port_df), len(stbd_df))
+        if n == 0:
+            raise RecordingError(f"{path}: the {fmt} recording holds no side-scan pings")
+        port_df, stbd_df = port_df.iloc[:n], stbd_df.iloc[:n]
+        dtype = _sample_dtype(obj, port_df)
+        sides, complete = [], np.ones(n, dtype=bool)
+        for df, file in ((port_df, port_file), (stbd_df, stbd_file)):
+            off = (_col(df, "index") + _col(df, "son_offset")).astype(np.int64)
+            cnt = _col(df, "ping_cnt").astype(np.int64)
+            samples, ok = gather_samples(file, off, cnt, dtype)
+            sides.append(samples)
+            complete &= ok
     keep = np.flatnonzero(complete)
     if keep.size == 0:
         raise RecordingError(
@@ -184,6 +249,8 @@ def read_pingverter(path: str | Path, fmt: str) -> SidescanRecording:
     cnt = _col(sdf, "ping_cnt")
     slant = _col(sdf, "max_range") * s / cnt  # range of S samples at this ping's spacing
     freq_khz = _col(sdf, "f")
+    if not np.any(freq_khz > 0):
+        freq_khz = _frequency_label_khz(obj, sdf)
     t = _col(sdf, "time_s")
     nav = PingNav(
         lon_deg=_col(sdf, "lon"),

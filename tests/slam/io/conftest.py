@@ -54,3 +54,47 @@ def _write_xtf(path, port, stbd, times_s, slant=30.0, nav_x=None):
 @pytest.fixture
 def write_xtf():
     return _write_xtf
+
+
+#: Lowrance's spherical-Mercator radius (sonarlight / pingverter), m.
+LOWRANCE_R = 6356752.3142
+
+
+def _write_sl2(path, samples, *, lon, lat, max_range_ft=60.0, depth_ft=10.0, speed_kn=4.0,
+               cog_rad=0.5, dt_ms=100, survey_type=5):
+    """A Lowrance SL2 written from its published frame layout (pingverter's ``sl2Struct``,
+    after sonarlight / SL3Reader): 8-byte file header, then per ping a 144-byte frame
+    header and ``packet_size`` one-byte samples. ``samples``: (P, 2S) uint8 in the
+    combined side-scan layout (port far range first, then starboard near range first).
+    Positions are encoded with the forward spherical Mercator
+    (``x = R·λ``, ``y = R·ln tan(π/4 + φ/2)``), the inverse of the reader's conversion."""
+    from pingverter.lowrance_class import sl2Struct
+
+    samples = np.asarray(samples, dtype=np.uint8)
+    p, width = samples.shape
+    out = bytearray(np.array([2, 0, 3200], dtype="<u2").tobytes() + bytes([0, 0]))
+    for i in range(p):
+        h = np.zeros(1, dtype=sl2Struct)
+        h["frame_offset"] = len(out)
+        h["frame_size"] = 144 + width
+        h["survey_type"] = survey_type
+        h["packet_size"] = width
+        h["id"] = i
+        h["max_range"] = max_range_ft
+        h["frequency_type"] = 3
+        h["hardware_time"] = 1_600_000_000
+        h["depth_ft"] = depth_ft
+        h["gps_speed"] = speed_kn
+        h["utm_e"] = round(LOWRANCE_R * np.radians(lon[i]))
+        h["utm_n"] = round(LOWRANCE_R * np.log(np.tan(np.pi / 4 + np.radians(lat[i]) / 2)))
+        h["track_cog"] = cog_rad
+        h["heading"] = cog_rad
+        h["time_s"] = i * dt_ms
+        out += h.tobytes() + samples[i].tobytes()
+    path.write_bytes(bytes(out))
+    return path
+
+
+@pytest.fixture
+def write_sl2():
+    return _write_sl2
