@@ -12,9 +12,11 @@ recreational units. The tracker:
    nadir return is at the same range on both sides, a fish or a wreck usually is not;
 3. takes the *first* sample after the blanking range ``blank_m`` whose score reaches
    ``first_fraction`` of the ping's best score (the first return, not the strongest: a
-   strong target further out must not capture the track);
-4. marks a ping "no bottom" (nan) when its best score is below ``min_contrast`` (no step:
-   lost bottom, out of range, or a file with no water column at all);
+   strong target further out must not capture the track), then the peak of that edge's
+   score within the next w samples (the step itself);
+4. marks a ping "no bottom" (nan) when its best score is below ``min_contrast`` or below
+   ``min_z`` robust standard deviations of its own scores (no step stands out of the
+   speckle: lost bottom, out of range, or a file with no water column at all);
 5. rejects picks more than ``max_jump_m`` from the running median of ``median_pings``
    picks (a multiple or a school of fish), which also become nan.
 
@@ -40,6 +42,9 @@ class BottomTrackConfig:
     edge_m : half-width of the step-edge score, m.
     first_fraction : the pick is the first sample scoring this fraction of the ping's best.
     min_contrast : least best score (natural-log units, both sides summed) for a bottom.
+    min_z : least best score in robust standard deviations of the ping's scores (median
+        absolute deviation × 1.4826): the maximum of pure speckle over a few hundred
+        samples stays near 4.
     median_pings, max_jump_m : outlier rejection against the running median of picks.
     """
 
@@ -49,6 +54,7 @@ class BottomTrackConfig:
     edge_m: float = 0.25
     first_fraction: float = 0.6
     min_contrast: float = 0.4
+    min_z: float = 4.5
     median_pings: int = 15
     max_jump_m: float = 1.0
 
@@ -73,11 +79,13 @@ class BottomTrack:
     sample : (P,) float64, first-return sample index per side (near range = 0), nan = none.
     altitude_m : (P,) float64, slant range of the first return = altitude, m (nan = none).
     contrast : (P,) float64, the ping's best edge score (log units, both sides summed).
+    z : (P,) float64, that score in robust standard deviations of the ping's scores.
     """
 
     sample: np.ndarray
     altitude_m: np.ndarray
     contrast: np.ndarray
+    z: np.ndarray
 
     @property
     def found(self) -> np.ndarray:
@@ -102,7 +110,8 @@ def track_bottom(wf: Waterfall, config: BottomTrackConfig | None = None) -> Bott
     """First seabed return of every ping of ``wf`` (see the module docstring)."""
     cfg = config or BottomTrackConfig()
     s = wf.samples_per_side
-    dr = float(np.nanmedian(wf.sample_spacing_m()))
+    spacing = wf.sample_spacing_m()
+    dr = float(np.median(spacing[np.isfinite(spacing)])) if np.isfinite(spacing).any() else 0.0
     if not (np.isfinite(dr) and dr > 0):
         raise ValueError(
             f"track_bottom needs the waterfall's slant range (got sample spacing {dr} m); "
@@ -120,10 +129,17 @@ def track_bottom(wf: Waterfall, config: BottomTrackConfig | None = None) -> Bott
     score[:, :blank] = 0.0
     best = score.max(axis=1)
     hit = score >= cfg.first_fraction * best[:, None]
-    pick = np.argmax(hit, axis=1).astype(np.float64)
-    pick[best < cfg.min_contrast] = np.nan
+    first = np.argmax(hit, axis=1)
+    # climb to the peak of that first edge (the step itself, not where its ramp starts)
+    win_idx = np.minimum(first[:, None] + np.arange(w + 1)[None, :], s - 1)
+    peak = np.take_along_axis(score, win_idx, axis=1).argmax(axis=1)
+    pick = (first + peak).astype(np.float64)
+    med = np.median(score[:, blank:], axis=1, keepdims=True)
+    noise = 1.4826 * np.median(np.abs(score[:, blank:] - med), axis=1)
+    z = (best - med[:, 0]) / np.maximum(noise, 1e-12)
+    pick[(best < cfg.min_contrast) | (z < cfg.min_z)] = np.nan
     pick = _reject_jumps(pick, cfg.median_pings, cfg.max_jump_m / dr)
-    return BottomTrack(sample=pick, altitude_m=pick * wf.sample_spacing_m(), contrast=best)
+    return BottomTrack(sample=pick, altitude_m=pick * spacing, contrast=best, z=z)
 
 
 def _reject_jumps(pick: np.ndarray, window: int, max_jump: float) -> np.ndarray:
