@@ -56,8 +56,9 @@ def run_batch(
             res = {"file": str(f), "ok": True, **process(f)}
         except (ValueError, OSError) as exc:
             failed += 1
-            res = {"file": str(f), "ok": False, "error": str(exc)}
-            msg = f"undersea {command}: {exc}"
+            text = str(exc) if str(f) in str(exc) else f"{f}: {exc}"
+            res = {"file": str(f), "ok": False, "error": text}
+            msg = f"undersea {command}: {text}"
             if show:
                 bar.write(msg, file=sys.stderr)
             else:
