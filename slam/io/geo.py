@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from slam.frontend.bottom_track import BottomTrack, fill_track
+from slam.frontend.bottom_track import BottomTrack, fill_track, track_bottom
 from slam.frontend.mosaic import Mosaic, grid_mosaic, ping_positions_smoothed, slant_range_correct
 from slam.io.recording import SidescanRecording
 
@@ -190,3 +190,36 @@ def write_geojson(path: str | Path, collection: dict) -> Path:
     path = Path(path)
     path.write_text(json.dumps(collection, indent=1))
     return path
+
+
+def write_slam_geo_outputs(
+    out_dir: str | Path,
+    rec: SidescanRecording,
+    origin_lonlat: tuple[float, float],
+    landmarks_xy_m: np.ndarray,
+    landmark_cov: np.ndarray,
+    detections_xy_m: np.ndarray,
+    detection_properties: Sequence[dict],
+) -> dict:
+    """GIS outputs of a SLAM run on a recording, into ``out_dir``: ``mosaic.tif`` (local
+    UTM), ``landmarks.geojson`` (points + 95 % covariance ellipses) and
+    ``detections.geojson`` (WGS84). Positions are in the run's local frame (metres
+    east/north of ``origin_lonlat``). Returns the written paths by name."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+
+    def to_lonlat(e, n):
+        return lonlat_from_local(e, n, origin_lonlat)
+
+    track = track_bottom(rec.waterfall)
+    paths = {
+        "mosaic": write_geotiff(out / "mosaic.tif", mosaic_from_recording(rec, track)),
+        "landmarks": write_geojson(
+            out / "landmarks.geojson", landmarks_geojson(landmarks_xy_m, landmark_cov, to_lonlat)
+        ),
+        "detections": write_geojson(
+            out / "detections.geojson",
+            detections_geojson(detections_xy_m, detection_properties, to_lonlat),
+        ),
+    }
+    return {k: str(v) for k, v in paths.items()}
