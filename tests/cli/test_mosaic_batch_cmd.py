@@ -101,3 +101,24 @@ def test_mosaic_real_humminbird(shared_data, tmp_path, capsys):
         assert b.bottom <= min(ys) and max(ys) <= b.top
         band = ds.read(1)
     assert 0.15 < np.isfinite(band).mean() < 0.9
+
+
+@pytest.mark.shared_data
+def test_sss_slam_gis_outputs_agree_with_the_mosaic(shared_data, tmp_path):
+    """Scotsman XTF: the landmarks (GeoJSON, WGS84, from the SLAM's local frame) fall on
+    the bright wreck in the GeoTIFF mosaic (built from UTM): two independent routes from
+    the navigation to the map must meet."""
+    from rasterio.warp import transform
+
+    out = tmp_path / "sss"
+    assert main(["sss-slam", str(shared_data / "xtf" / "scotsman-iver2.xtf"), "--out", str(out)]) == 0
+    lm = json.loads((out / "landmarks.geojson").read_text())
+    pts = [f["geometry"]["coordinates"] for f in lm["features"]
+           if f["properties"]["kind"] == "landmark"]
+    ellipses = [f for f in lm["features"] if f["properties"]["kind"] == "covariance_ellipse"]
+    assert pts and len(ellipses) == len(pts)
+    with rasterio.open(out / "mosaic.tif") as ds:
+        band = ds.read(1)
+        xs, ys = transform("EPSG:4326", ds.crs, [p[0] for p in pts], [p[1] for p in pts])
+        vals = [band[ds.index(x, y)] for x, y in zip(xs, ys, strict=True)]
+    assert np.nanmax(vals) > np.nanpercentile(band, 90)
