@@ -23,6 +23,9 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
+import rasterio
+from pyproj import Transformer
+from rasterio.transform import from_origin
 
 from slam.frontend.bottom_track import BottomTrack, fill_track, track_bottom
 from slam.frontend.mosaic import Mosaic, grid_mosaic, ping_positions_smoothed, slant_range_correct
@@ -45,8 +48,6 @@ def utm_epsg(lon_deg: float, lat_deg: float) -> int:
 
 def project_lonlat(lon: np.ndarray, lat: np.ndarray, epsg: int):
     """(east, north) in EPSG ``epsg`` of WGS84 lon/lat arrays (pyproj, always x = lon)."""
-    from pyproj import Transformer
-
     tr = Transformer.from_crs("EPSG:4326", f"EPSG:{epsg}", always_xy=True)
     e, n = tr.transform(np.asarray(lon, dtype=np.float64), np.asarray(lat, dtype=np.float64))
     return np.asarray(e), np.asarray(n)
@@ -100,9 +101,6 @@ def mosaic_from_recording(
 
 def write_geotiff(path: str | Path, mosaic: Mosaic) -> Path:
     """Write ``mosaic`` as a single-band float32 GeoTIFF (nodata nan)."""
-    import rasterio
-    from rasterio.transform import from_origin
-
     path = Path(path)
     h, w = mosaic.image.shape
     profile = {

@@ -26,7 +26,10 @@ import tempfile
 import warnings
 from pathlib import Path
 
+import joblib
 import numpy as np
+import pandas as pd
+import pingverter
 
 from slam.io.errors import RecordingError, TruncatedRecordingWarning
 from slam.io.recording import PingNav, SidescanRecording, nav_dict_from_pingnav
@@ -102,9 +105,6 @@ def _lowrance_intact_prefix(path: Path, work: str) -> Path:
 
 def _parse_headers(path: Path, fmt: str, work: str, source: Path):
     """Run pingverter's header decoder, silenced; any failure becomes RecordingError."""
-    import joblib
-    import pingverter
-
     convert = {
         "humminbird": pingverter.hum2pingmapper,
         "lowrance": pingverter.low2pingmapper,
@@ -131,8 +131,6 @@ def _parse_headers(path: Path, fmt: str, work: str, source: Path):
 
 def _beam_table(obj, work: str, beam: str, path: Path, fmt: str, source: Path):
     """pingverter's table of one beam, in time order, and the file holding its samples."""
-    import pandas as pd
-
     meta = os.path.join(work, "meta")
     csvs = sorted(Path(meta).glob(f"{beam}_*_meta.csv")) if os.path.isdir(meta) else []
     if not csvs:
@@ -183,8 +181,6 @@ def gather_samples(file: Path, offsets: np.ndarray, counts: np.ndarray, dtype: n
 def _col(df, name: str, scale: float = 1.0) -> np.ndarray:
     if name not in df.columns:
         return np.full(len(df), np.nan)
-    import pandas as pd
-
     return pd.to_numeric(df[name], errors="coerce").to_numpy(dtype=np.float64) * scale
 
 

@@ -141,3 +141,12 @@ def test_real_humminbird_truncated_copy_keeps_intact_pings(shared_data, tmp_path
         np.testing.assert_array_equal(
             getattr(part.waterfall, side), getattr(full.waterfall, side)[:k, :m]
         )
+
+
+def test_package_level_entry_point():
+    import slam.io
+    import slam.io.sidescan
+
+    assert slam.io.read_sidescan is slam.io.sidescan.read_sidescan
+    with pytest.raises(AttributeError, match="no attribute 'read_nothing'"):
+        slam.io.read_nothing  # noqa: B018
