@@ -178,6 +178,41 @@ def gather_samples(file: Path, offsets: np.ndarray, counts: np.ndarray, dtype: n
     return samples.astype(np.float32), complete
 
 
+def _ints_per_sample(df) -> np.ndarray:
+    """(n,) 2 for JSF analytic (I, Q) data formats 1 and 9, else 1."""
+    fmt = _col(df, "data_format")
+    return np.where(np.isin(fmt, (1, 9)), 2.0, 1.0)
+
+
+def jsf_amplitude(samples: np.ndarray, df) -> np.ndarray:
+    """EdgeTech JSF samples as linear amplitude: analytic data (formats 1, 9: signed I, Q
+    pairs) become √(I² + Q²); every ping is scaled by 2^−N, its weighting factor N (JSF
+    spec, message 80), so pings recorded with different gains compare."""
+    out = samples
+    if np.any(_ints_per_sample(df) == 2):
+        iq = samples.astype(np.uint16).view(np.int16).astype(np.float32)
+        out = np.hypot(iq[:, 0::2], iq[:, 1::2])
+    weight = np.nan_to_num(_col(df, "weighting_factor"), nan=0.0)
+    return (out * np.exp2(-weight)[:, None]).astype(np.float32)
+
+
+def _warn_jsf_tail(path: Path, *tables) -> None:
+    """pingverter stops silently at a JSF message cut by the end of the file, keeping the
+    whole messages before it; say so when bytes remain after the last whole message."""
+    end = max(
+        int(np.nanmax(_col(df, "index") + _col(df, "son_offset") + 2 * _col(df, "ping_cnt")))
+        for df in tables
+    )
+    size = path.stat().st_size
+    if size > end:
+        warnings.warn(
+            f"{path}: truncated jsf recording: kept the whole messages, dropped "
+            f"{size - end} bytes of a cut message after byte {end}",
+            TruncatedRecordingWarning,
+            stacklevel=3,
+        )
+
+
 def _col(df, name: str, scale: float = 1.0) -> np.ndarray:
     if name not in df.columns:
         return np.full(len(df), np.nan)
@@ -213,6 +248,8 @@ def read_pingverter(path: str | Path, fmt: str) -> SidescanRecording:
         n = min(len(port_df), len(stbd_df))
         if n == 0:
             raise RecordingError(f"{path}: the {fmt} recording holds no side-scan pings")
+        if fmt == "jsf":
+            _warn_jsf_tail(path, port_df, stbd_df)
         port_df, stbd_df = port_df.iloc[:n], stbd_df.iloc[:n]
         dtype = _sample_dtype(obj, port_df)
         sides, complete = [], np.ones(n, dtype=bool)
@@ -220,7 +257,7 @@ def read_pingverter(path: str | Path, fmt: str) -> SidescanRecording:
             off = (_col(df, "index") + _col(df, "son_offset")).astype(np.int64)
             cnt = _col(df, "ping_cnt").astype(np.int64)
             samples, ok = gather_samples(file, off, cnt, dtype)
-            sides.append(samples)
+            sides.append(jsf_amplitude(samples, df) if fmt == "jsf" else samples)
             complete &= ok
     keep = np.flatnonzero(complete)
     if keep.size == 0:
@@ -242,8 +279,10 @@ def read_pingverter(path: str | Path, fmt: str) -> SidescanRecording:
     if not PORT_FAR_FIRST[fmt]:
         port = port[:, ::-1]
     sdf = stbd_df.iloc[keep]
-    cnt = _col(sdf, "ping_cnt")
+    cnt = _col(sdf, "ping_cnt") / _ints_per_sample(sdf)
     slant = _col(sdf, "max_range") * s / cnt  # range of S samples at this ping's spacing
+    no_range = ~np.isfinite(slant)
+    slant[no_range] = (_col(sdf, "pixM") * s)[no_range]  # JSF: c · sample interval / 2
     freq_khz = _col(sdf, "f")
     if not np.any(freq_khz > 0):
         freq_khz = _frequency_label_khz(obj, sdf)
@@ -261,6 +300,8 @@ def read_pingverter(path: str | Path, fmt: str) -> SidescanRecording:
     origin = ""
     if {"date", "time"} <= set(sdf.columns):
         origin = f"{sdf['date'].iloc[0]}T{sdf['time'].iloc[0]}"
+    elif t[0] > 1e8:  # JSF: seconds since 1970
+        origin = str(np.datetime64(round(float(t[0]) * 1e3), "ms"))
     wf = Waterfall(
         intensity=np.concatenate([port, stbd], axis=1),
         samples_per_side=s,

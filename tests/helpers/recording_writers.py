@@ -100,3 +100,42 @@ def write_sl2(path, samples, *, lon, lat, max_range_ft=60.0, depth_ft=10.0, spee
         out += h.tobytes() + samples[i].tobytes()
     path.write_bytes(bytes(out))
     return path
+
+
+def write_jsf(path, port, stbd, *, lon, lat, t0=1_600_000_000, dt_s=1, heading_deg=45.0,
+              speed_kn=3.0, altitude_m=6.0, interval_ns=20_000, sound_speed=1500.0,
+              freq_dahz=(39000, 41000), weight=0):
+    """An EdgeTech JSF written from the published layout (JSF spec rev. 1.20, message 80;
+    the offsets pingverter's ``jsf._decode_msg80`` reads): per ping and side a 16-byte
+    message header (marker 0x1601, type 80, channel 0 port / 1 starboard, payload size)
+    then the 240-byte sonar-data header and u16 envelope samples (format 0), near range
+    first on both sides. Positions in minutes × 10000 (coordinate units 2); ``dt_s`` whole
+    seconds between pings (the format's time field is in whole seconds plus ms of day)."""
+    import struct
+
+    port, stbd = np.asarray(port, dtype="<u2"), np.asarray(stbd, dtype="<u2")
+    p, s = port.shape
+    out = bytearray()
+    for i in range(p):
+        for channel, data in ((0, port[i]), (1, stbd[i])):
+            h80 = bytearray(240)
+            struct.pack_into("<i", h80, 0, t0 + i * dt_s)
+            struct.pack_into("<I", h80, 8, i)
+            struct.pack_into("<H", h80, 30, (1 << 6) | (1 << 9))  # altitude, depth valid
+            struct.pack_into("<h", h80, 34, 0)  # envelope data
+            struct.pack_into("<i", h80, 80, round(lon[i] * 600000))
+            struct.pack_into("<i", h80, 84, round(lat[i] * 600000))
+            struct.pack_into("<h", h80, 88, 2)  # minutes of arc × 10000
+            struct.pack_into("<H", h80, 114, s)
+            struct.pack_into("<I", h80, 116, interval_ns)
+            struct.pack_into("<HH", h80, 126, *freq_dahz)
+            struct.pack_into("<i", h80, 136, round(altitude_m * 1000))
+            struct.pack_into("<i", h80, 144, round(altitude_m * 1000))
+            struct.pack_into("<f", h80, 148, sound_speed)
+            struct.pack_into("<h", h80, 168, weight)
+            struct.pack_into("<H", h80, 172, round(heading_deg * 100))
+            struct.pack_into("<h", h80, 194, round(speed_kn * 10))
+            head = struct.pack("<HBBHBBBBHi", 0x1601, 16, 0, 80, 0, 20, channel, 0, 0, 240 + 2 * s)
+            out += head + bytes(h80) + data.tobytes()
+    path.write_bytes(bytes(out))
+    return path

@@ -150,3 +150,34 @@ def test_package_level_entry_point():
     assert slam.io.read_sidescan is slam.io.sidescan.read_sidescan
     with pytest.raises(AttributeError, match="no attribute 'read_nothing'"):
         slam.io.read_nothing  # noqa: B018
+
+
+def test_jsf_samples_range_and_nav_as_written(tmp_path, rng):
+    """EdgeTech JSF message 80 written from the spec: samples unchanged (near range first
+    on both sides), range = samples · c · Δt / 2, frequency the band centre, positions in
+    minutes × 10000 back to degrees; a cut last message keeps the whole pings before it."""
+    from recording_writers import write_jsf
+
+    p, s = 8, 50
+    port = rng.integers(0, 60000, size=(p, s))
+    stbd = rng.integers(0, 60000, size=(p, s))
+    lon, lat = np.linspace(-70.0, -69.999, p), np.full(p, 42.0)
+    path = write_jsf(tmp_path / "a.jsf", port, stbd, lon=lon, lat=lat, heading_deg=45.0,
+                     speed_kn=3.0, altitude_m=6.0, interval_ns=20_000, sound_speed=1500.0)
+    rec = read_sidescan(path)
+    assert rec.format == "jsf"
+    np.testing.assert_array_equal(rec.waterfall.port, port)
+    np.testing.assert_array_equal(rec.waterfall.starboard, stbd)
+    np.testing.assert_allclose(rec.range_m, s * 1500.0 * 20e-6 / 2)
+    np.testing.assert_allclose(rec.frequency_hz, 400e3)  # (390 + 410) / 2 kHz
+    np.testing.assert_allclose(rec.time_s, np.arange(p, dtype=float))
+    np.testing.assert_allclose(rec.nav.lon_deg, lon, atol=1e-6)
+    np.testing.assert_allclose(rec.nav.lat_deg, lat, atol=1e-6)
+    np.testing.assert_allclose(rec.nav.heading_deg, 45.0)
+    np.testing.assert_allclose(rec.nav.speed_m_s, 3.0 * KNOT, rtol=1e-4)
+    np.testing.assert_allclose(rec.nav.altitude_m, 6.0)
+    cut = tmp_path / "cut.jsf"
+    cut.write_bytes(path.read_bytes()[:-30])
+    with pytest.warns(TruncatedRecordingWarning, match="truncated jsf"):
+        part = read_sidescan(cut)
+    np.testing.assert_array_equal(part.waterfall.starboard, stbd[:-1])
