@@ -165,6 +165,8 @@ def _sample_dtype(obj, df) -> np.dtype:
 def gather_samples(file: Path, offsets: np.ndarray, counts: np.ndarray, dtype: np.dtype):
     """(n, S) samples of each ping (zero-padded at far range) and the (n,) bool of pings
     whose bytes lie wholly inside the file."""
+    if not file.is_file() or file.stat().st_size == 0:
+        raise RecordingError(f"{file}: missing or empty sample file")
     data = np.memmap(file, dtype=np.uint8, mode="r")
     nbytes = counts.astype(np.int64) * dtype.itemsize
     complete = (offsets >= 0) & (offsets + nbytes <= data.size) & (counts > 0)
@@ -173,7 +175,7 @@ def gather_samples(file: Path, offsets: np.ndarray, counts: np.ndarray, dtype: n
     j = np.arange(width, dtype=np.int64)[None, :]
     valid = complete[:, None] & (j < nbytes[:, None])
     idx = np.where(valid, offsets.astype(np.int64)[:, None] + j, 0)
-    raw = np.where(valid, data[idx] if data.size else 0, 0).astype(np.uint8)
+    raw = np.where(valid, data[idx], 0).astype(np.uint8)
     samples = np.ascontiguousarray(raw).view(dtype).reshape(len(offsets), s)
     return samples.astype(np.float32), complete
 

@@ -181,3 +181,12 @@ def test_jsf_samples_range_and_nav_as_written(tmp_path, rng):
     with pytest.warns(TruncatedRecordingWarning, match="truncated jsf"):
         part = read_sidescan(cut)
     np.testing.assert_array_equal(part.waterfall.starboard, stbd[:-1])
+
+
+def test_lone_humminbird_son_names_the_missing_dat(tmp_path):
+    folder = tmp_path / "R00001"
+    folder.mkdir()
+    son = folder / "B002.SON"
+    son.write_bytes(bytes(500))
+    with pytest.raises(RecordingError, match=r"without its recording header: expected .*R00001\.DAT"):
+        read_sidescan(son)
