@@ -96,13 +96,13 @@ class BottomTrack:
 def _edge_score(logi: np.ndarray, w: int) -> np.ndarray:
     """(P, S) ``mean(x[k:k+w]) − mean(x[k−w:k])``, 0 where a window leaves the row."""
     p, s = logi.shape
+    out = np.zeros((p, s))
+    if s < 2 * w:
+        return out
     c = np.zeros((p, s + 1))
     np.cumsum(logi, axis=1, out=c[:, 1:])
-    k = np.arange(s)
-    ok = (k >= w) & (k + w <= s)
-    kk = k[ok]
-    out = np.zeros((p, s))
-    out[:, ok] = ((c[:, kk + w] - c[:, kk]) - (c[:, kk] - c[:, kk - w])) / w
+    mid = c[:, w : s - w + 1]  # c[k] for k = w .. s − w
+    out[:, w : s - w + 1] = (c[:, 2 * w :] - 2.0 * mid + c[:, : s - 2 * w + 1]) / w
     return out
 
 

@@ -99,3 +99,15 @@ def test_humminbird_track_follows_the_header_depth(shared_data):
     assert ok.mean() > 0.95
     r = np.corrcoef(bt.altitude_m[:n][ok], rec.nav.altitude_m[:n][ok])[0, 1]
     assert r > 0.88
+
+
+def test_edge_score_equals_the_direct_window_means(rng):
+    """Second implementation: the cumulative-sum score against explicit window means."""
+    from slam.frontend.bottom_track import _edge_score
+
+    x, w = rng.normal(size=(4, 37)), 5
+    ref = np.zeros_like(x)
+    for k in range(w, x.shape[1] - w + 1):
+        ref[:, k] = x[:, k : k + w].mean(axis=1) - x[:, k - w : k].mean(axis=1)
+    np.testing.assert_allclose(_edge_score(x, w), ref, atol=1e-12)
+    assert not _edge_score(x[:, :7], w).any()  # rows shorter than two windows: no edge
