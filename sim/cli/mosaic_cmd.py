@@ -71,9 +71,11 @@ def mosaic_one(path: Path, out: Path, cell_m: float | None, figures: bool) -> di
         "bottom_csv": str(csv),
     }
     if both.sum() >= 3:
-        d = track.altitude_m[both] - ref[both]
+        a, b = track.altitude_m[both], ref[both]
+        d = a - b
+        varies = np.std(a) > 0 and np.std(b) > 0  # r is undefined for a constant series
         res["bottom_vs_file_altitude"] = {
-            "r": float(np.corrcoef(track.altitude_m[both], ref[both])[0, 1]),
+            "r": float(np.corrcoef(a, b)[0, 1]) if varies else None,
             "rmse_m": float(np.sqrt(np.mean(d**2))),
             "bias_m": float(np.mean(d)),
             "pings": int(both.sum()),
@@ -118,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
             print(line)
             if "bottom_vs_file_altitude" in r:
                 b = r["bottom_vs_file_altitude"]
-                print(f"  bottom track vs file altitude: r = {b['r']:.3f}, RMSE {b['rmse_m']:.2f} m, "
+                r_txt = "n/a (constant)" if b["r"] is None else f"{b['r']:.3f}"
+                print(f"  bottom track vs file altitude: r = {r_txt}, RMSE {b['rmse_m']:.2f} m, "
                       f"bias {b['bias_m']:+.2f} m over {b['pings']} pings")
     return code
