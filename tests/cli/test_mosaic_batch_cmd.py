@@ -38,6 +38,7 @@ def test_mosaic_folder_keeps_good_files_and_reports_bad_ones(tmp_path, rng, caps
     assert "cut.xtf: truncated XTF file" in err and "junk.sl2" in err
     results = json.loads((out / "batch.json").read_text())
     assert [r["ok"] for r in results] == [False, True, False]  # cut, good, junk (sorted)
+    assert results[1]["bottom_vs_file_altitude"]["r"] is None  # constant altitude: no r
     with rasterio.open(out / "good.tif") as ds:
         assert ds.crs.to_epsg() == 32619
     track = json.loads((out / "good_track.geojson").read_text())
