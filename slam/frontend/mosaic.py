@@ -180,4 +180,9 @@ def grid_mosaic(
     c3 = uniform_filter(hit.astype(np.float64), size=3, mode="constant")
     fill = ~hit & (c3 > 0.5 / 9)  # at least one of the 9 (guards round-off of the running sum)
     mean[fill] = (s3[fill] / c3[fill]).astype(np.float32)
-    return Mosaic(image=mean, west_m=float(west), north_m=float(north), cell_m=float(cell_m), crs=crs)
+    # crop the conservative bounding box to the cells holding data
+    rows = np.flatnonzero(np.isfinite(mean).any(axis=1))
+    cols = np.flatnonzero(np.isfinite(mean).any(axis=0))
+    mean = mean[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+    return Mosaic(image=np.ascontiguousarray(mean), west_m=float(west + cols[0] * cell_m),
+                  north_m=float(north - rows[0] * cell_m), cell_m=float(cell_m), crs=crs)
