@@ -29,6 +29,7 @@ COMMANDS: dict[str, str] = {
     "uwsn": "uwsn_cmd",
     "slam-experiment": "slam_experiment_cmd",
     "sss-slam": "sss_slam_cmd",
+    "mosaic": "mosaic_cmd",
     "bench": "bench_cmd",
     "sweep": "sweep_cmd",
     "dataset": "dataset_cmd",

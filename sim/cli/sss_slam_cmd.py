@@ -7,11 +7,14 @@ import json
 import sys
 from pathlib import Path
 
-HELP = "run the segmentation front end and SLAM on a recorded side-scan XTF file (needs its navigation)"
+HELP = (
+    "run the segmentation front end and SLAM on a side-scan recording (XTF, JSF, Humminbird, "
+    "Lowrance, Garmin; needs its navigation)"
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", help="side-scan recording (.xtf) with per-ping position and heading")
+    parser.add_argument("file", help="side-scan recording (.xtf .jsf .DAT .sl2 .sl3 .rsd) with per-ping position and heading")
     parser.add_argument("--method", default="improved-otsu",
                         help="segmentation: improved-otsu | otsu | local | isodata | kapur")
     parser.add_argument("--preset", default="auto", help="segmentation preset (default: from image size)")
@@ -24,12 +27,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="position units (auto: the XTF header's NavUnits)")
     parser.add_argument("--odometry-sigma-frac", type=float, default=0.02,
                         help="1-sigma odometry error per metre travelled (fraction)")
-    parser.add_argument("--out", default=None, help="directory for result.json and sss_slam.png")
+    parser.add_argument("--out", default=None, help="directory for result.json, sss_slam.png and the "
+                        "GIS outputs (mosaic.tif, landmarks.geojson, detections.geojson)")
     parser.add_argument("--json", action="store_true", help="print the result summary as JSON")
 
 
 def run(args: argparse.Namespace) -> int:
-    from slam.io.xtf import read_xtf
+    from slam.io.geo import write_slam_geo_outputs
+    from slam.io.sidescan import read_sidescan
     from slam.sidescan_slam import SidescanSlamConfig, plot_sidescan_slam, run_sidescan_slam
 
     try:
@@ -38,7 +43,8 @@ def run(args: argparse.Namespace) -> int:
             estimator=args.estimator, window_pings=args.window, hop_pings=args.hop,
             altitude=args.altitude, nav_units=args.nav_units, odometry_sigma_frac=args.odometry_sigma_frac,
         )
-        wf = read_xtf(args.file)
+        rec = read_sidescan(args.file)
+        wf = rec.waterfall
         result = run_sidescan_slam(wf, cfg)
     except (ValueError, FileNotFoundError) as exc:
         print(f"undersea sss-slam: {exc}", file=sys.stderr)
@@ -50,6 +56,13 @@ def run(args: argparse.Namespace) -> int:
         (out / "result.json").write_text(json.dumps(summary, indent=1))
         plot_sidescan_slam(wf, result, out / "sss_slam.png")
         summary["figure"] = str(out / "sss_slam.png")
+        if result.origin is not None:  # GeoTIFF mosaic + GeoJSON (WGS84) for a GIS
+            try:
+                summary["gis"] = write_slam_geo_outputs(
+                    out, rec, result.origin, result.landmarks, result.landmark_cov,
+                    [d.world_xy_true_pose for d in result.detections], summary["detections"])
+            except ValueError as exc:
+                print(f"undersea sss-slam: no GIS outputs: {exc}", file=sys.stderr)
     if args.json:
         print(json.dumps(summary, indent=1))
     else:

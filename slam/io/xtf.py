@@ -12,14 +12,20 @@ Two pyxtf conventions are handled here (checked on the real Scotsman recording i
 
 Pings whose sample count differs from the longest are zero-padded at the far-range end
 (documented, not NaN). Navigation fields are kept only when not all zero.
+
+A truncated file: pyxtf reads the last, cut ping with fewer samples than its channel
+header's ``NumSamples`` (or fails inside its header). The intact pings before it are kept
+and a :class:`~slam.io.errors.TruncatedRecordingWarning` names both counts.
 """
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 
+from slam.io.errors import RecordingError, TruncatedRecordingWarning
 from slam.io.waterfall import Waterfall
 
 #: XTF file-header "FileFormat" byte value (always 0x7B).
@@ -45,15 +51,44 @@ _NAV_FIELDS = {
 def _check_header_bytes(path: Path) -> None:
     size = path.stat().st_size
     if size < 1024:
-        raise ValueError(
+        raise RecordingError(
             f"{path}: not an XTF file (size {size} bytes; an XTF file header alone is 1024 bytes)"
         )
     with path.open("rb") as fh:
         head = fh.read(1024 + 2)
     if head[0] != XTF_FILE_FORMAT:
-        raise ValueError(
+        raise RecordingError(
             f"{path}: not an XTF file (first byte {head[0]}, XTF files start with {XTF_FILE_FORMAT})"
         )
+
+
+def _read_sonar_packets(path: Path):
+    """(file header, sonar ping packets in file order, error text or None): packets are
+    read one by one so an error inside the last (cut) packet keeps the ones before it."""
+    import pyxtf
+
+    try:
+        gen = pyxtf.xtf_read_gen(str(path), types=[pyxtf.XTFHeaderType.sonar])
+        file_header = next(gen)
+    except Exception as exc:  # ctypes/pyxtf raise many types on a bad header
+        raise RecordingError(f"{path}: unreadable XTF file header ({exc})") from exc
+    pings, broken = [], None
+    while True:
+        try:
+            pings.append(next(gen))
+        except StopIteration:
+            break
+        except Exception as exc:  # a cut packet: keep what was read before it
+            broken = f"{type(exc).__name__}: {exc}"
+            break
+    return file_header, pings, broken
+
+
+def _is_intact(ping) -> bool:
+    """Every channel holds the samples its channel header announces."""
+    return all(
+        len(d) == int(h.NumSamples) for d, h in zip(ping.data, ping.ping_chan_headers, strict=False)
+    ) and len(ping.data) > 0
 
 
 def read_xtf(path: str | Path, *, channels: tuple[int, int] | None = None) -> Waterfall:
@@ -71,21 +106,32 @@ def read_xtf(path: str | Path, *, channels: tuple[int, int] | None = None) -> Wa
 
     Raises
     ------
-    ValueError for missing, non-XTF, truncated files or files without a port/starboard pair.
+    RecordingError (a ValueError) for missing, non-XTF files, files cut before their first
+    intact ping, or files without a port/starboard pair. A file cut later keeps its intact
+    pings with a TruncatedRecordingWarning.
     """
-    import pyxtf
-
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"XTF path {str(path)!r} is not a file")
+        raise RecordingError(f"XTF path {str(path)!r} is not a file")
     _check_header_bytes(path)
-    try:
-        file_header, packets = pyxtf.xtf_read(str(path))
-    except (RuntimeError, ValueError, OSError, EOFError) as exc:
-        raise ValueError(f"{path}: unreadable or truncated XTF file ({exc})") from exc
-    pings = list(packets.get(pyxtf.XTFHeaderType.sonar, []))
-    if not pings:
-        raise ValueError(f"{path}: XTF file holds no side-scan sonar pings")
+    file_header, pings, broken = _read_sonar_packets(path)
+    intact = [p for p in pings if _is_intact(p)]
+    n_cut = len(pings) - len(intact) + int(broken is not None)
+    if n_cut and not intact:
+        raise RecordingError(
+            f"{path}: truncated XTF file: no intact side-scan ping before the cut"
+            + (f" ({broken})" if broken else "")
+        )
+    if not intact:
+        raise RecordingError(f"{path}: XTF file holds no side-scan sonar pings")
+    if n_cut:
+        warnings.warn(
+            f"{path}: truncated XTF file: kept {len(intact)} intact pings, dropped "
+            f"{n_cut} cut ping(s)",
+            TruncatedRecordingWarning,
+            stacklevel=2,
+        )
+    pings = intact
     pings.sort(key=lambda p: p.get_time())  # stable: keeps file order for equal times
 
     if channels is None:
@@ -94,7 +140,7 @@ def read_xtf(path: str | Path, *, channels: tuple[int, int] | None = None) -> Wa
             for ch in pings[0].ping_chan_headers
         ]
         if _PORT not in types or _STBD not in types:
-            raise ValueError(
+            raise RecordingError(
                 f"{path}: need one port (type 1) and one starboard (type 2) channel, "
                 f"file has channel types {types}"
             )
@@ -104,12 +150,12 @@ def read_xtf(path: str | Path, *, channels: tuple[int, int] | None = None) -> Wa
     n_ch = len(pings[0].data)
     for name, i in (("port", i_port), ("starboard", i_stbd)):
         if not 0 <= i < n_ch:
-            raise ValueError(f"{name} channel index {i} out of range [0, {n_ch})")
+            raise RecordingError(f"{name} channel index {i} out of range [0, {n_ch})")
 
     sizes = [max(len(p.data[i_port]), len(p.data[i_stbd])) for p in pings]
     s = max(sizes)
     if s == 0:
-        raise ValueError(f"{path}: pings hold no samples")
+        raise RecordingError(f"{path}: pings hold no samples")
     n = len(pings)
     port = np.zeros((n, s), dtype=np.float32)
     stbd = np.zeros((n, s), dtype=np.float32)

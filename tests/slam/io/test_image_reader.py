@@ -64,3 +64,40 @@ def test_bad_files(tmp_path):
 def test_as_grey_float_rejects_bad_arrays(arr, msg):
     with pytest.raises(ValueError, match=msg):
         as_grey_float(arr)
+
+
+def _png_header_only(path, width, height):
+    """A PNG whose IHDR declares width × height 8-bit grey but whose pixel data is cut
+    short: the size is in the header, decoding would need width·height bytes."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(
+            ">I", zlib.crc32(kind + data) & 0xFFFFFFFF
+        )
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    body = chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(bytes(1000))) + chunk(b"IEND", b"")
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + body)
+    return path
+
+
+def test_10000_by_10000_image_refused_before_decoding(tmp_path):
+    """The size comes from the header: refused with the size and the bound named, and
+    without decoding (the pixel data in the file is a few bytes)."""
+    from slam.io.images import MAX_IMAGE_PIXELS
+
+    big = _png_header_only(tmp_path / "big.png", 10_000, 10_000)
+    assert big.stat().st_size < 2000
+    with pytest.raises(ValueError, match=rf"10000 x 10000 = 100000000 px exceeds the bound of {MAX_IMAGE_PIXELS}"):
+        read_image(big)
+
+
+def test_max_pixels_bound_is_exact(tmp_path, rng):
+    img = rng.integers(0, 255, size=(30, 40)).astype(np.uint8)
+    path = tmp_path / "s.png"
+    cv2.imwrite(str(path), img)
+    assert read_image(path, max_pixels=1200).image.shape == (30, 40)
+    with pytest.raises(ValueError, match="40 x 30 = 1200 px exceeds the bound of 1199"):
+        read_image(path, max_pixels=1199)
