@@ -8,7 +8,7 @@ counted:
 - **real**: the Scotsman wreck (real XTF, MIRA-normalized starboard side, pings 150–400,
   samples 100–700 from nadir), the thesis's protocol of Ch. 4.2.2: A = the image blurred
   with an 11×11 Gaussian (σ 1.5), B = the image rotated by 20°–180° and scaled 0.6–1.4.
-  Without ../shared/data a synthetic texture stands in (said in the output).
+  Without ../shared/data (or $UNDERSEA_SHARED_DATA) a synthetic texture stands in (said in the output).
 - **sim**: two simulated side-scan passes over a wreck on parallel lines 14 m and 20 m
   away (``sim.sonar.survey_pair``), mosaicked with the true poses on one grid (so A and B
   differ in speckle and shadows as two passes do); B = the second pass rotated and scaled.
@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -48,8 +49,14 @@ THESIS_COLUMNS = ("harris", "surf", "brisk", "sift", "asift")
 CORRECT_PX = 5.0
 
 
+def shared_data() -> Path:
+    """The real-data folder: $UNDERSEA_SHARED_DATA, else ../shared/data beside the clone."""
+    env = os.environ.get("UNDERSEA_SHARED_DATA")
+    return Path(env) if env else REPO.parent / "shared" / "data"
+
+
 def wreck_crop() -> tuple[np.ndarray, None, str]:
-    xtf = REPO.parent / "shared" / "data" / "xtf" / "scotsman-iver2.xtf"
+    xtf = shared_data() / "xtf" / "scotsman-iver2.xtf"
     if xtf.is_file():
         from slam.frontend.normalization import mira_normalize
         from slam.io.xtf import read_xtf
@@ -150,13 +157,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--quick",
         action="store_true",
-        help="2 angles x 2 scales, small sim pair, at most 500 keypoints per image",
+        help="2 angles x 2 scales, small sim pair, at most 150 keypoints per image (per affine view for ASIFT)",
     )
     ap.add_argument(
         "--max-features",
         type=int,
         default=None,
-        help="cap on keypoints per image (per affine view for ASIFT); default none (500 with --quick)",
+        help="cap on keypoints per image (per affine view for ASIFT); default none (150 with --quick)",
     )
     ap.add_argument("--seed", type=int, default=0, help="speckle seed of the simulated passes")
     ap.add_argument("--json", action="store_true")
@@ -172,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.pair in ("sim", "both"):
         pairs.append(simulated_pair(args.seed, args.quick))
     out = {"ratio": args.ratio, "angles_deg": angles, "scales": scales, "pairs": []}
-    cap = args.max_features if args.max_features is not None else (500 if args.quick else 0)
+    cap = args.max_features if args.max_features is not None else (150 if args.quick else 0)
     if cap < 0:
         print(f"table_4_3: --max-features {cap}; allowed >= 0", file=sys.stderr)
         return 2
