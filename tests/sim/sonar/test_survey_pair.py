@@ -21,11 +21,16 @@ def pair():
     return wreck_survey_pair(0, half_extent=12.0, ping_spacing=0.3)
 
 
-def test_pair_is_on_one_grid_and_differs_by_speckle_and_shadow(pair):
-    """Same grid, both covered; not the same image (independent speckle, other line)."""
+def test_pair_is_on_one_grid_and_the_farther_line_casts_longer_shadows(pair):
+    """Same grid; the seabed south of the wreck (towards both tracks) is lit in both. A
+    shadow behind an object of height h seen from altitude H at ground range g is
+    g·h/(H − h) long, so the line 20 m off leaves more shadow north of the wreck than the
+    line 14 m off (the tall parts' shadows run off the grid from both lines)."""
     assert pair.a.shape == pair.b.shape == (120, 120)
-    assert np.mean(pair.a > 0) > 0.9 and np.mean(pair.b > 0) > 0.9
-    assert not np.allclose(pair.a, pair.b)
+    south = slice(int(0.8 * 120), 120)  # rows of y in (−12, −7.2) m: bare seabed
+    assert np.mean(pair.a[south] > 0) > 0.95 and np.mean(pair.b[south] > 0) > 0.95
+    north = slice(0, 60)  # y > 0: behind the wreck as seen from the south
+    assert np.sum(pair.b[north] == 0) > np.sum(pair.a[north] == 0)
 
 
 def test_sift_finds_the_identity_between_the_passes(pair):
