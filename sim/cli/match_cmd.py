@@ -6,7 +6,17 @@ import argparse
 import json
 import sys
 
-HELP = "match two sonar images with SIFT/ORB/ASIFT, bidirectional NN ratio test and RANSAC"
+from slam.frontend.matching import DETECTORS
+
+HELP = (
+    "match two sonar images (Harris, BRISK, SIFT, ORB or ASIFT keypoints), bidirectional "
+    "NN ratio test and RANSAC"
+)
+DETECTOR_HELP = (
+    "harris: Harris corners with SIFT descriptors oriented by the intensity centroid "
+    "(rotation-, not scale-invariant); brisk: BRISK binary descriptors; sift; orb; asift: "
+    "affine SIFT. SURF is not offered: pip's OpenCV does not build its patented code"
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -14,9 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("b", help="second image")
     parser.add_argument(
         "--detector",
-        choices=("sift", "orb", "asift"),
+        choices=DETECTORS,
         default="sift",
-        help="SURF is not in pip OpenCV builds (nonfree contrib module)",
+        help=DETECTOR_HELP,
     )
     parser.add_argument(
         "--ratio", type=float, default=0.8, help="alpha of eqs. 4.17-4.18, in (0, 1]"

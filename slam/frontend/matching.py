@@ -1,10 +1,22 @@
 """Keypoint matching between overlapping sonar images (thesis Ch. 4.2).
 
-Detectors (OpenCV): ``"sift"`` (cv2.SIFT), ``"orb"`` (cv2.ORB, binary, Hamming distance)
-and ``"asift"`` (cv2.AffineFeature wrapping SIFT: SIFT over simulated affine tilts and
-rotations, Morel & Yu). SURF, the thesis's main detector, is patented code kept in
-opencv-contrib's ``xfeatures2d`` "nonfree" module, which pip's OpenCV wheels do not build;
-it is therefore not offered here (SIFT is its closest free substitute).
+Detectors (OpenCV), the thesis's five (Ch. 4.2.1) less SURF, plus ORB:
+
+- ``"harris"``: Harris & Stephens corners (``cv2.goodFeaturesToTrack`` with the Harris
+  measure, k = 0.04) at one scale, each described by a SIFT descriptor over a fixed
+  :data:`HARRIS_SUPPORT_PX` support, oriented by the intensity centroid of a disc around
+  the corner (Rosin 1999, the orientation ORB uses). Rotation-invariant, not
+  scale-invariant — the weakness the thesis names.
+- ``"brisk"``: BRISK (Leutenegger et al. 2011; binary, Hamming distance), from
+  opencv-contrib's ``xfeatures2d`` in OpenCV 5 (``cv2.BRISK`` in 4.x).
+- ``"sift"`` (cv2.SIFT); ``"orb"`` (cv2.ORB, binary, Hamming distance); ``"asift"``
+  (cv2.AffineFeature wrapping SIFT: SIFT over simulated affine tilts and rotations,
+  Morel & Yu).
+
+SURF, the thesis's main detector, is patented code in opencv-contrib's ``xfeatures2d``
+"nonfree" part, which pip's OpenCV wheels do not build (``SURF_create`` raises "This
+algorithm is patented and is excluded"); it is therefore not offered (SIFT is its closest
+free substitute).
 
 Candidate pairs follow the thesis's bidirectional nearest-neighbour criterion with ratio
 α ≤ 1 (eqs. 4.16–4.18): (p_i, q_j) is kept when q_j is p_i's nearest neighbour and p_i
@@ -26,7 +38,10 @@ import numpy as np
 
 from slam.io.images import as_grey_float
 
-DETECTORS = ("sift", "orb", "asift")
+DETECTORS = ("harris", "brisk", "sift", "orb", "asift")
+BINARY_DETECTORS = ("orb", "brisk")  # Hamming-distance descriptors
+UNAVAILABLE_DETECTORS = {"surf": "patented; not built into pip's OpenCV (nonfree contrib)"}
+HARRIS_SUPPORT_PX = 24.0  # diameter of the SIFT descriptor's support around a Harris corner
 
 
 @dataclass(frozen=True)
@@ -101,30 +116,98 @@ def to_uint8(image: np.ndarray, *, low: float = 0.5, high: float = 99.5) -> np.n
     return np.clip(np.rint(255.0 * (f - lo) / (hi - lo)), 0, 255).astype(np.uint8)
 
 
+def _brisk():
+    import cv2
+
+    if hasattr(cv2, "BRISK_create"):  # OpenCV 4.x main module
+        return cv2.BRISK_create()
+    return cv2.xfeatures2d.BRISK_create()  # OpenCV 5: opencv-contrib's xfeatures2d
+
+
 def _make_detector(detector: str, max_features: int):
     import cv2
 
+    if detector == "brisk":
+        return _brisk()
     if detector == "sift":
         return cv2.SIFT_create(nfeatures=max_features)
     if detector == "orb":
         return cv2.ORB_create(nfeatures=max_features or 5000)
     if detector == "asift":
         return cv2.AffineFeature_create(cv2.SIFT_create(nfeatures=max_features))
-    raise ValueError(
-        f"detector {detector!r} not available; allowed {DETECTORS} "
-        "(SURF is not built into pip OpenCV: it lives in opencv-contrib's nonfree module)"
+    raise ValueError(_unknown_detector(detector))
+
+
+def _unknown_detector(detector: str) -> str:
+    why = UNAVAILABLE_DETECTORS.get(str(detector).lower())
+    if why:
+        return f"detector {detector!r} is not available: {why}; allowed {DETECTORS}"
+    return f"detector {detector!r} not available; allowed {DETECTORS}"
+
+
+def intensity_centroid_angles(
+    img: np.ndarray, points: np.ndarray, *, radius: int = 12
+) -> np.ndarray:
+    """Orientation in degrees (OpenCV keypoint convention, [0, 360)) of each point from the
+    intensity centroid of a disc of ``radius`` px around it (Rosin 1999; ORB's rule):
+    θ = atan2(m01, m10), m_pq = Σ x^p y^q I(x, y) over the disc, x right and y down.
+
+    Written here because OpenCV computes it only inside ORB's own detector. Two
+    whole-image ``filter2D`` passes give m10 and m01 everywhere; the points sample them.
+    """
+    import cv2
+
+    r = int(radius)
+    yy, xx = np.mgrid[-r : r + 1, -r : r + 1].astype(np.float32)
+    disc = (xx**2 + yy**2 <= r * r).astype(np.float32)
+    f = img.astype(np.float32)
+    m10 = cv2.filter2D(f, cv2.CV_32F, xx * disc, borderType=cv2.BORDER_REFLECT)
+    m01 = cv2.filter2D(f, cv2.CV_32F, yy * disc, borderType=cv2.BORDER_REFLECT)
+    if points.shape[0] == 0:
+        return np.zeros(0, np.float64)
+    c = np.clip(np.rint(points[:, 0]).astype(int), 0, f.shape[1] - 1)
+    rr = np.clip(np.rint(points[:, 1]).astype(int), 0, f.shape[0] - 1)
+    return np.degrees(np.arctan2(m01[rr, c], m10[rr, c])) % 360.0
+
+
+def _harris_keypoints(img: np.ndarray, max_features: int):
+    """Harris corners (k = 0.04, quality 1 % of the best, 5 px apart) with SIFT descriptors
+    over a fixed support, oriented by :func:`intensity_centroid_angles`."""
+    import cv2
+
+    corners = cv2.goodFeaturesToTrack(
+        img,
+        maxCorners=max_features or 5000,
+        qualityLevel=0.01,
+        minDistance=5,
+        blockSize=5,
+        useHarrisDetector=True,
+        k=0.04,
     )
+    pts = np.zeros((0, 2), np.float32) if corners is None else corners.reshape(-1, 2)
+    angles = intensity_centroid_angles(img, pts)
+    kps = [
+        cv2.KeyPoint(float(x), float(y), HARRIS_SUPPORT_PX, float(a))
+        for (x, y), a in zip(pts, angles, strict=True)
+    ]
+    if not kps:
+        return [], None
+    return cv2.SIFT_create().compute(img, kps)
 
 
 def detect(image: np.ndarray, detector: str = "sift", *, max_features: int = 0) -> Keypoints:
     """Detect keypoints and compute descriptors on a grey image (any dtype; stretched to
     uint8 by :func:`to_uint8`). ``max_features`` 0 = detector default (ORB: 5000)."""
-    det = _make_detector(detector, max_features)
+    if detector not in DETECTORS:
+        raise ValueError(_unknown_detector(detector))
     img = to_uint8(image)
-    kps, desc = det.detectAndCompute(img, None)
+    if detector == "harris":
+        kps, desc = _harris_keypoints(img, max_features)
+    else:
+        kps, desc = _make_detector(detector, max_features).detectAndCompute(img, None)
     if desc is None or len(kps) == 0:
-        width = 32 if detector == "orb" else 128
-        dtype = np.uint8 if detector == "orb" else np.float32
+        width = {"orb": 32, "brisk": 64}.get(detector, 128)
+        dtype = np.uint8 if detector in BINARY_DETECTORS else np.float32
         return Keypoints(np.zeros((0, 2), np.float32), np.zeros((0, width), dtype), detector)
     pts = np.array([k.pt for k in kps], dtype=np.float32).reshape(-1, 2)
     return Keypoints(pts, desc, detector)
@@ -207,7 +290,7 @@ def match_images(
     ka = detect(a, detector, max_features=max_features)
     kb = detect(b, detector, max_features=max_features)
     pairs = bidirectional_matches(
-        ka.descriptors, kb.descriptors, ratio=ratio, binary=detector == "orb"
+        ka.descriptors, kb.descriptors, ratio=ratio, binary=detector in BINARY_DETECTORS
     )
     transform = None
     inliers = np.zeros(pairs.shape[0], bool)
@@ -294,6 +377,8 @@ def rotation_scale_sweep(
     blur: tuple[int, float] | None = (11, 1.5),
     speckle: float = 0.0,
     rng: np.random.Generator | None = None,
+    second: np.ndarray | None = None,
+    max_features: int = 0,
 ) -> list[SweepRow]:
     """Thesis Table 4.3 protocol: image A = ``image`` blurred with a Gaussian (11×11,
     σ 1.5; the "large-space low-resolution" image), image B = ``image`` rotated and scaled.
@@ -303,24 +388,32 @@ def rotation_scale_sweep(
     ``speckle`` > 0 multiplies B by independent unit-mean Gamma speckle of that standard
     deviation (from ``rng``), a crude stand-in for a second pass seeing new speckle;
     without it, A and B share their noise and matching is easier than between real passes.
+
+    ``second`` (optional): a second image of the same place on the same pixel grid (e.g. a
+    second pass mosaicked with the true poses); B is then made from it instead of from
+    ``image``, so the pair differs as two real passes do and the true transform is still
+    the applied rotation and scale.
     """
     import cv2
 
     base = to_uint8(image)
     a = cv2.GaussianBlur(base, (blur[0], blur[0]), blur[1]) if blur else base
+    other = base if second is None else to_uint8(second)
+    if other.shape != base.shape:
+        raise ValueError(f"second has shape {other.shape}; allowed: image's {base.shape}")
     h, w = base.shape
     corners = np.array([[0, 0, 1], [w, 0, 1], [0, h, 1], [w, h, 1]], dtype=np.float64)
     rows = []
     for s in scales:
         for ang in angles_deg:
-            b, m_true = rotate_scale(base, ang, s)
+            b, m_true = rotate_scale(other, ang, s)
             if speckle > 0:
                 if rng is None:
                     raise ValueError("speckle > 0 needs an rng (numpy.random.Generator)")
                 k = 1.0 / speckle**2
                 noise = rng.gamma(k, 1.0 / k, size=b.shape)
                 b = np.clip(b * noise, 0, 255).astype(np.uint8)
-            res = match_images(a, b, detector=detector, ratio=ratio)
+            res = match_images(a, b, detector=detector, ratio=ratio, max_features=max_features)
             if res.transform is None:
                 rot_err = scale_err = corner_err = np.nan
             else:
