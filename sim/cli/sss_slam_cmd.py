@@ -29,14 +29,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
     from slam.io.xtf import read_xtf
+    from slam.pipeline import REAL_SIDESCAN, EstimatorSpec
     from slam.sidescan_slam import SidescanSlamConfig, plot_sidescan_slam, run_sidescan_slam
 
     try:
+        pipe = replace(
+            REAL_SIDESCAN, method=args.method, preset=args.preset,
+            normalization=args.normalization, window_pings=args.window, hop_pings=args.hop,
+        )
         cfg = SidescanSlamConfig(
-            method=args.method, preset=args.preset, normalization=args.normalization,
-            estimator=args.estimator, window_pings=args.window, hop_pings=args.hop,
-            altitude=args.altitude, nav_units=args.nav_units, odometry_sigma_frac=args.odometry_sigma_frac,
+            pipeline=pipe, estimator=EstimatorSpec(args.estimator), altitude=args.altitude,
+            nav_units=args.nav_units, odometry_sigma_frac=args.odometry_sigma_frac,
         )
         wf = read_xtf(args.file)
         result = run_sidescan_slam(wf, cfg)

@@ -19,7 +19,8 @@ import gymnasium as gym
 import numpy as np
 
 from sim.frames import wxyz_from_euler
-from sim.runner.lagged import apply_increment
+from sim.viz.meshes import vehicle_body_mesh
+from slam.pipeline.lagged import apply_increment
 
 VEHICLE_CHOICES = ("alister9", "ixn", "naiad", "saga", "rexrov")
 
@@ -279,7 +280,6 @@ class UnderseaEnv(gym.Env):
         L.log_annotations(self._rec)
         v, f, _ = self.world.static_mesh()
         L.log_seabed(self._rec, v, f)
-        from sim.runner.core import vehicle_body_mesh
 
         mesh = vehicle_body_mesh(self.world.model, self.world.data, self.vehicle.body_id)
         if mesh is not None:

@@ -26,7 +26,8 @@ observation. A view-dependent term is added to that covariance: a side-scan high
 is the sonar-facing part of an object, so its centroid moves across the object between
 passes from opposite sides; ``view_bias`` x the region's across-track extent (range) and
 along-track extent (as a bearing) are added as standard deviations (0.5: half the
-extent), so re-observations from the other side still pass the association gates. The runner feeds it to SLAM at the pose of t_k (sim.runner.lagged).
+extent), so re-observations from the other side still pass the association gates. slam.pipeline feeds it to SLAM at the pose of t_k
+(slam.pipeline.lagged).
 
 Scoring uses the simulator's per-sample labels: a detection is a true positive when at
 least ``tp_fraction`` of its region's pixels carry an object id > 0.
@@ -44,22 +45,26 @@ from slam.types import RangeBearing
 
 @dataclass(frozen=True)
 class PingRecord:
-    """What the runner keeps per side-scan ping.
+    """One side-scan ping as the windowing keeps it.
 
-    t: acquisition time, s. intensity (2S,) float32 linear, port left (far range first).
-    labels (2S,) int32 object id per sample (0 seabed, -1 no return, k >= 1 object k).
+    t: acquisition time, s. intensity (2S,) float32, port left (far range first).
     slant_range (S,) m of the starboard half's samples (near to far; port mirrored).
-    altitude: measured altitude (DVL), m. pose_true (3,) [x, y, yaw] for scoring only.
-    speed: along-track speed estimate, m/s (for the along-track pixel size).
+    altitude: measured altitude (DVL or first return), m. speed: along-track speed
+    estimate, m/s (for the along-track pixel size).
+    Ground truth, optional (scoring only; a recording has none): labels (2S,) int32
+    object id per sample (0 seabed, -1 no return, k >= 1 object k); pose_true (3,)
+    [x, y, yaw]. Without them detections carry object id 0, are not true positives and
+    are placed with ``pose_nav`` (the navigation pose, when given).
     """
 
     t: float
     intensity: np.ndarray
-    labels: np.ndarray
     slant_range: np.ndarray
     altitude: float
-    pose_true: np.ndarray
     speed: float = 1.5
+    labels: np.ndarray | None = None
+    pose_true: np.ndarray | None = None
+    pose_nav: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -75,7 +80,7 @@ class Detection:
     observation: RangeBearing
     object_id: int  # majority simulator label of the region (0 = none) - scoring only
     true_positive: bool
-    world_xy_true_pose: np.ndarray  # the detection placed with the true pose (scoring only)
+    world_xy_true_pose: np.ndarray  # placed with the true pose (else the nav pose, else NaN)
 
 
 @dataclass
@@ -155,7 +160,9 @@ class SidescanProcessor:
         W, H = self.window, self.hop
         pings = self.pings[a : a + W]
         img = np.stack([p.intensity for p in pings]).astype(np.float32)
-        lab = np.stack([p.labels for p in pings]).astype(np.int32)
+        lab = np.stack(
+            [p.labels if p.labels is not None else np.zeros(img.shape[1], np.int32) for p in pings]
+        ).astype(np.int32)
         if self.prepare is not None:
             img = self.prepare(img, np.array([p.altitude for p in pings]), pings[0].slant_range)
         own_lo = self._owned_until
@@ -267,7 +274,7 @@ class SidescanProcessor:
                     self.view_bias * ext[0] * geom.along_track_spacing / max(rng_[0], 1.0)
                 ) ** 2
             obs = RangeBearing([rng_[0], brg[0]], R, t=p.t, meta={"object_id": oid, "ping": k})
-            x, y, yaw = p.pose_true
+            x, y, yaw = _placing_pose(p)
             wxy = np.array([x + rng_[0] * np.cos(yaw + brg[0]), y + rng_[0] * np.sin(yaw + brg[0])])
             slant = float(np.hypot(rng_[0], p.altitude))
             out.append(
@@ -318,6 +325,15 @@ class SidescanProcessor:
             return 10.0
         dt = (self.pings[-1].t - self.pings[0].t) / (n - 1)
         return 1.0 / dt if dt > 0 else 10.0
+
+
+def _placing_pose(p: PingRecord) -> np.ndarray:
+    """The pose a detection is placed with: true (scoring), else navigation, else NaN."""
+    if p.pose_true is not None:
+        return np.asarray(p.pose_true, float)
+    if p.pose_nav is not None:
+        return np.asarray(p.pose_nav, float)
+    return np.full(3, np.nan)
 
 
 def no_return_mask(img: np.ndarray) -> np.ndarray:

@@ -1,76 +1,41 @@
-"""FLS and MSIS frames -> detections -> SLAM observations (the runner's polar front end).
+"""FLS and MSIS frames -> detections -> SLAM observations (the polar front end).
 
 A forward-looking sonar frame is a polar image (range bins x beams, one pose); an MSIS
 scan is a polar image (head angles x range bins) whose rows are pings at their own poses.
 Both go through the same chain, :class:`PolarFrontend`:
 
 1. **Conditioning** (:func:`condition_polar`): linear intensity; each cell divided by the
-   median of its ``background_window`` neighbourhood (the local seabed level changes with
-   range and grazing angle across the image); cells without a return set to that level;
-   ``looks`` x ``looks`` incoherent averaging against speckle; then dB above the
-   background mapped with a **fixed** scale [0, ``top_db``] dB -> [0, 255] to 8 bits.
-   The fixed scale is the point: the segmentation's own min-max stretch made every frame,
-   even bare seabed, span the full grey range, and the Otsu threshold then split the
-   no-return area from the seabed (one region of ~14 000 px, removed by the area filter)
-   instead of objects from seabed. Measured on the 300 frames of a 60 s ``harbour-fls``
-   run: the previous conditioning + ``fls`` preset gave 8 detections in 300 frames.
-   Averaging consecutive frames (2-3 "looks" over time) was measured too and not kept:
-   on ``harbour-fls`` it raised the false regions (the vehicle moves 0.1 m and turns
-   between frames, which smears highlights into the seabed) for no gain in true ones.
-2. **Segmentation**: slam.frontend.segmentation (improved Otsu by default) with the
-   size rule for the actual image (preset ``"auto"``): the reference's ``fls`` preset
-   (a = 40 px) is for its 1920 x 932 images and removes a tyre (20-30 px in a 256 x 128
-   frame) in step 1 of Algorithm 2.
+   median of its ``background_window`` neighbourhood (the seabed level changes with range
+   and grazing angle); cells without a return set to that level; ``looks`` x ``looks``
+   incoherent averaging against speckle; dB above the background mapped with a **fixed**
+   scale [0, ``top_db``] dB -> [0, 255] to 8 bits, so bare seabed does not span the full
+   grey range and the threshold separates objects from seabed.
+2. **Segmentation**: slam.frontend.segmentation (improved Otsu by default) with the size
+   rule for the actual image (preset ``"auto"``).
 3. **Region filter**: area in [``min_area_px``, ``max_area_fraction`` x image] and a
-   contrast test, the region's peak at least ``min_peak_db`` above the local background
-   (a CFAR-style test on the conditioned image; on 25-look averaged speckle the
-   background's 99th percentile was 3.5 dB and its maximum 5-6 dB in the measured runs,
-   objects peak at 9-18 dB). Regions touching a truncating image edge (FLS: first / last
-   beam and the far range bin; MSIS: the far range bin) are dropped: their centroid is
-   not the object's.
-4. **Extended objects**: regions of one frame whose footprints (centroid +- half
-   their extent along the joining line) lie closer than ``merge_radius_m`` (single
-   linkage, :func:`footprint_gap_groups`) are one object (a wreck or a pipe broken into
-   highlights). Each object's position is the centroid of its cells in metres (body
-   frame, horizontal ranges), and its covariance is the cell covariance (range bin,
-   max(beam width, angular step), each uniform) plus the second-moment matrix of its
-   cells, plus two view terms, because a sonar lights only part of an extended object
-   and the landmark is the object's centre:
-
-   * along the region's major axis, (``extent_bias`` x the object's lit length)²: the
-     lit part of a 20 m wreck, or of a 10 m pipe seen end-on, is a few metres at one
-     end (measured: errors of 3.5-4.5 m along the object's axis with a region sigma of
-     ~1 m). ``extent_bias`` = 2 puts the centre anywhere within ±3.5 lit lengths,
-     i.e. the lit part is at least ~1/7 of the object;
-   * along the line of sight, (``shadow_bias`` x the lit width across it)²: only the
-     sonar-facing side is lit, the centre lies behind it (0.5, as the side-scan path's
-     ``view_bias``).
-
-   Lit lengths are the region's (sqrt(12 variance), a uniform bar) less the width a
-   point target's region gets from the chain (blur, dilation, beam width), so compact
-   objects (a tyre) keep a covariance near their cell size. Chosen on the two scenarios
-   it is measured on (60 s runs, no held-out scenario): with ``extent_bias`` 0, 1, 2 the
-   landmark NEES of the wreck seen by SAGA's FLS in swarms-mapping was 26.5, 12.3, 4.8;
-   the tyre in harbour-fls is unaffected (NEES 0.1-1.2); no objects merged. The
-   position error itself stays (4-5 m for the wreck): a point landmark at the centre of
-   a partly seen 20 m object is not better observable from one side.
-   Computed for all regions at once with ``numpy.bincount`` / batched ``eigh``.
-5. **Persistence** (:class:`PersistenceFilter`): a detection becomes a confirmed
-   detection only if candidates were found within ``persistence_radius_m`` (world
-   frame, placed with the vehicle's *navigation* pose - dead reckoning, never the true
-   pose) in at least ``persistence_k`` of the last ``persistence_n`` frames including
-   this one. Speckle does not recur at a fixed world position; objects do.
-6. **Keyframing**: consecutive FLS frames of one object share their systematic error
-   (which part of an extended object is lit, layover of its height), so feeding every
-   frame to the filter as independent shrinks the landmark covariance well below the
-   real error (landmark NEES 62 on harbour-fls). A confirmed detection becomes a SLAM
-   observation only when its track is new or the vehicle has moved ``keyframe_distance_m``
-   or turned ``keyframe_angle_deg`` since that track's last observation (MSIS: scans are
-   metres apart, every confirmed detection is used).
+   contrast test (peak at least ``min_peak_db`` above the local background, CFAR-style);
+   regions touching a truncating image edge are dropped (their centroid is not the
+   object's).
+4. **Extended objects**: regions of one frame whose footprints lie closer than
+   ``merge_radius_m`` (single linkage, :func:`footprint_gap_groups`) are one object. Its
+   position is the centroid of its cells in metres (body frame, horizontal ranges); its
+   covariance is the cell covariance plus the cells' second-moment matrix plus two view
+   terms (``extent_bias`` along the major axis, ``shadow_bias`` along the line of
+   sight), because a sonar lights only part of an extended object and the landmark is
+   its centre. Computed for all regions at once (``numpy.bincount``, batched ``eigh``).
+5. **Persistence** (:class:`PersistenceFilter`): a candidate is confirmed when candidates
+   lie within ``persistence_radius_m`` (world frame, placed with the *navigation* pose,
+   never the true pose) in at least ``persistence_k`` of the last ``persistence_n``
+   frames.
+6. **Keyframing**: a confirmed detection becomes a SLAM observation only when its track is
+   new or the vehicle has moved ``keyframe_distance_m`` / turned ``keyframe_angle_deg``
+   since that track's last observation (consecutive frames of one object share their
+   systematic error).
 
 Observation timing: an FLS observation belongs to its frame's time; an MSIS observation
-to the ping of its centroid row (as before). Persistence uses only past frames, so
-nothing is delayed (the lagged SLAM feeder is not held back by FLS / MSIS).
+to the ping of its centroid row. Persistence uses only past frames, so nothing is
+delayed. Why each parameter has its value (measured on the built-in scenarios):
+docs/polar-frontend.md.
 
 Hand-written here: the chain's glue, the moment-based covariance and the persistence
 filter (no library provides a k-of-n confirmation on world positions); thresholding,
