@@ -8,7 +8,7 @@ Public names used by the envs and the dataset exporter: :func:`world_spec_from_s
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -203,9 +203,14 @@ def sonar_geometry(world, vehicle_name: str, sp: SonarSpec, son) -> SonarGeometr
     )
 
 
-def make_sonar(world, vehicle_name: str, sp: SonarSpec, rng) -> SonarRuntime:
-    """Build one scenario sonar on a vehicle of ``world``."""
+def make_sonar(
+    world, vehicle_name: str, sp: SonarSpec, rng, *, linear: bool = False
+) -> SonarRuntime:
+    """Build one scenario sonar on a vehicle of ``world``; ``linear``: without the preset's
+    log compression (linear intensity out, as the dataset exporter wants)."""
     cfg = preset(sp.preset, **dict(sp.overrides))
+    if linear:
+        cfg = replace(cfg, acoustic=replace(cfg.acoustic, log_compression=False))
     h = world.vehicles[vehicle_name]
     common = (world.model, world.data)
     kw = {

@@ -77,7 +77,9 @@ class RerunObserver(RunObserver):
             L.log_sonar_image(rec, v.spec.name, s.spec.name, frame.image, overlay)
         elif out.kind == "msis" and out.frames:
             L.set_time(rec, run.world.time)
-            L.log_sonar_image(rec, v.spec.name, s.spec.name, np.stack([f.image for f in out.frames]))
+            L.log_sonar_image(
+                rec, v.spec.name, s.spec.name, np.stack([f.image for f in out.frames])
+            )
 
     def on_tick(self, run) -> None:
         """Vehicle poses every 0.5 s; trajectories, map and SLAM scalars every 5 s."""
@@ -115,9 +117,7 @@ class RerunObserver(RunObserver):
                     "slam/sigma_yaw_deg": math.degrees(math.sqrt(max(P[2, 2], 0.0))),
                     "slam/n_landmarks": float(len(means)),
                     "slam/lag_s": run.world.time - lag.t_done,
-                    "slam/position_error_m": float(
-                        np.hypot(true_xy[0] - x[0], true_xy[1] - x[1])
-                    ),
+                    "slam/position_error_m": float(np.hypot(true_xy[0] - x[0], true_xy[1] - x[1])),
                 },
             )
         L.log_scalars(rec, v.spec.name, {"detections": float(len(v.tally.detections))})

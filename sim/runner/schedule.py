@@ -55,6 +55,38 @@ def yaw_of(q) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
+def step_to(world, t: float, timer: StageTimer | None = None) -> None:
+    """Advance physics in whole steps to the step nearest ``t`` s (not backwards)."""
+    n = max(0, round((t - world.time) / world.timestep))
+    if n:
+        t0 = time.perf_counter()
+        world.step(n)
+        if timer is not None:
+            timer.add("physics", t0)
+
+
+def advance_tick(world, pilots, tracks, dt_c: float, on_ping, timer: StageTimer | None = None):
+    """One control tick of the scenario clock (module docstring), shared by the runner and
+    the dataset exporter: each (handle, autopilot) of ``pilots`` sets its wrench demand
+    from the true state; physics advances to each ping due inside the tick (``tracks``:
+    objects with ``next_t`` and ``period`` s; ties in list order), ``on_ping(k)`` fires
+    track k there; then physics runs to the end of the tick."""
+    t0 = time.perf_counter()
+    for handle, autopilot in pilots:
+        handle.apply_wrench_demand(autopilot.update(handle.state(), dt_c))
+    if timer is not None:
+        timer.add("guidance", t0)
+    t_end = world.time + dt_c
+    while tracks:
+        k = min(range(len(tracks)), key=lambda i: (tracks[i].next_t, i))
+        if tracks[k].next_t > t_end + 1e-9:
+            break
+        step_to(world, tracks[k].next_t, timer)
+        on_ping(k)
+        tracks[k].next_t += tracks[k].period
+    step_to(world, t_end, timer)
+
+
 class RunObserver:
     """What a run tells its observers (all no-ops here; sim.runner.log.RerunObserver
     records them). ``on_frame`` gets every pipeline output that processed something."""
@@ -70,9 +102,10 @@ class RunObserver:
 
 class ScenarioRun:
     """Builds everything for a scenario (sim.runner.build) and runs it; see the module
-    docstring. observers: :class:`RunObserver` instances told what happened."""
+    docstring. observers: :class:`RunObserver` instances told what happened;
+    linear_sonars: build the sonars without log compression (dataset export)."""
 
-    def __init__(self, scenario: Scenario, observers=()) -> None:
+    def __init__(self, scenario: Scenario, observers=(), *, linear_sonars: bool = False) -> None:
         self.scn = scenario
         self.observers = list(observers)
         self.timer = StageTimer()
@@ -85,7 +118,7 @@ class ScenarioRun:
         for vs, vseed in zip(scenario.vehicles, vseeds):
             s_nav, s_slam, *s_sonar = vseed.spawn(2 + len(vs.sonars))
             sonars = [
-                make_sonar(self.world, vs.name, sp, np.random.default_rng(sd))
+                make_sonar(self.world, vs.name, sp, np.random.default_rng(sd), linear=linear_sonars)
                 for sp, sd in zip(vs.sonars, s_sonar)
             ]
             swath = 2 * max(
@@ -130,37 +163,26 @@ class ScenarioRun:
 
     def _tick(self, dt_c: float) -> None:
         """One control tick: guidance, physics to each due ping, pings, release."""
-        w = self.world
-        t0 = time.perf_counter()
-        for v in self.vehicles:
-            v.handle.apply_wrench_demand(v.autopilot.update(v.handle.state(), dt_c))
-        self.timer.add("guidance", t0)
-        t_end = w.time + dt_c
-        while True:
-            due = [(s.next_t, i, j) for i, v in enumerate(self.vehicles) for j, s in enumerate(v.sonars)]
-            nxt = min(due) if due else None
-            if nxt is None or nxt[0] > t_end + 1e-9:
-                break
-            self._step_to(nxt[0])
-            v = self.vehicles[nxt[1]]
-            s = v.sonars[nxt[2]]
+        tracks = [(v, s) for v in self.vehicles for s in v.sonars]
+
+        def on_ping(k: int) -> None:
+            v, s = tracks[k]
             self._nav_cut(v)
             self._fire(v, s)
-            s.next_t += s.period
-        self._step_to(t_end)
+
+        advance_tick(
+            self.world,
+            [(v.handle, v.autopilot) for v in self.vehicles],
+            [s for _, s in tracks],
+            dt_c,
+            on_ping,
+            self.timer,
+        )
         for v in self.vehicles:
             self._nav_cut(v)
             t0 = time.perf_counter()
-            v.slam.release(w.time)
+            v.slam.release(self.world.time)
             self.timer.add("slam", t0)
-
-    def _step_to(self, t: float) -> None:
-        w = self.world
-        n = max(0, round((t - w.time) / w.timestep))
-        if n:
-            t0 = time.perf_counter()
-            w.step(n)
-            self.timer.add("physics", t0)
 
     def _record_truth(self, v: VehicleRuntime) -> None:
         st = v.handle.state()

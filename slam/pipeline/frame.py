@@ -59,7 +59,9 @@ class SonarGeometry:
 
     def __post_init__(self) -> None:
         if self.kind not in SONAR_KINDS:
-            raise ValueError(f"SonarGeometry.kind = {self.kind!r}; allowed: {', '.join(SONAR_KINDS)}")
+            raise ValueError(
+                f"SonarGeometry.kind = {self.kind!r}; allowed: {', '.join(SONAR_KINDS)}"
+            )
         r = _array(self, "ranges", self.ranges)
         b = _array(self, "bearings", self.bearings)
         if r.ndim != 1 or r.size < 2 or np.any(np.diff(r) <= 0):

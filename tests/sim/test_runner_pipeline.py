@@ -82,7 +82,7 @@ def _fresh_pipeline(run, v) -> SonarSlam:
 
 
 def test_replayed_runner_stream_without_truth_gives_identical_updates(recorded):
-    scn, run, v, rec = recorded
+    _, run, v, rec = recorded
     assert rec.updates, "the recorded sequence must exercise SLAM (no update in 40 s)"
     n_frames = sum(isinstance(e, SonarFrame) for e in rec.events)
     assert n_frames > 300
@@ -98,4 +98,6 @@ def test_replayed_runner_stream_without_truth_gives_identical_updates(recorded):
     xb, Pb = fresh.estimator.pose()
     np.testing.assert_array_equal(xa, xb)
     np.testing.assert_array_equal(Pa, Pb)
-    np.testing.assert_array_equal(rec.inner.estimator.landmarks()[0], fresh.estimator.landmarks()[0])
+    np.testing.assert_array_equal(
+        rec.inner.estimator.landmarks()[0], fresh.estimator.landmarks()[0]
+    )
