@@ -1,4 +1,5 @@
-"""``undersea sss-slam FILE.xtf``: the front end and SLAM on a real side-scan recording."""
+"""``undersea sss-slam FILE``: the front end and SLAM on a real sonar recording: a side-scan
+XTF file, or FLS polar frames ``FILE.npy`` with their JSON sidecar (docs/pipeline.md)."""
 
 from __future__ import annotations
 
@@ -7,11 +8,13 @@ import json
 import sys
 from pathlib import Path
 
-HELP = "run the segmentation front end and SLAM on a recorded side-scan XTF file (needs its navigation)"
+HELP = ("run the segmentation front end and SLAM on a recorded side-scan XTF file or FLS "
+        ".npy frames + JSON sidecar (needs its navigation)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", help="side-scan recording (.xtf) with per-ping position and heading")
+    parser.add_argument("file", help="side-scan recording (.xtf) with per-ping position and heading, "
+                        "or FLS frames (.npy, with FILE.json beside it)")
     parser.add_argument("--method", default="improved-otsu",
                         help="segmentation: improved-otsu | otsu | local | isodata | kapur")
     parser.add_argument("--preset", default="auto", help="segmentation preset (default: from image size)")
@@ -28,7 +31,40 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the result summary as JSON")
 
 
+def run_fls(args: argparse.Namespace) -> int:
+    """FLS frames (.npy + .json sidecar) through the same pipeline."""
+    from dataclasses import replace
+
+    from slam.fls_slam import FlsSlamConfig, load_fls_recording, run_fls_slam
+    from slam.pipeline import EstimatorSpec, PipelineConfig
+
+    try:
+        pipe = replace(PipelineConfig(), method=args.method, preset=args.preset)
+        cfg = FlsSlamConfig(
+            pipeline=pipe, estimator=EstimatorSpec(args.estimator), nav_units=args.nav_units,
+            odometry_sigma_frac=args.odometry_sigma_frac,
+        )
+        result = run_fls_slam(load_fls_recording(args.file), cfg)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"undersea sss-slam: {exc}", file=sys.stderr)
+        return 2
+    summary = {"file": str(args.file), **result.summary()}
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "result.json").write_text(json.dumps(summary, indent=1))
+    if args.json:
+        print(json.dumps(summary, indent=1))
+    else:
+        print(f"{args.file}: {summary['frames']} frames, {len(result.detections)} confirmed "
+              f"detections, {result.n_observations} observations, {len(result.landmarks)} "
+              f"landmarks ({result.timing_s['total']:.2f} s)")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if str(args.file).lower().endswith(".npy"):
+        return run_fls(args)
     from dataclasses import replace
 
     from slam.io.xtf import read_xtf
