@@ -1,5 +1,6 @@
 """The rooms of ARCHITECTURE.md, checked on the source: slam never imports sim or mujoco;
-sim imports slam only from the runner, the envs, the CLI, sweeps and datasets; the envs
+sim imports slam only from the runner, the envs, the CLI, sweeps, datasets and the
+scenario schema (which validates against slam's registries); the envs
 use the runner only through its public names."""
 
 from __future__ import annotations
@@ -8,7 +9,8 @@ import ast
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-SIM_MAY_IMPORT_SLAM = ("runner", "envs", "cli", "sweep", "dataset")
+# scenario: the schema validates names and slam.params against slam's own registries
+SIM_MAY_IMPORT_SLAM = ("runner", "envs", "cli", "sweep", "dataset", "scenario")
 
 
 def _imports(path: Path) -> set[str]:

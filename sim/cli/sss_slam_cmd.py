@@ -8,6 +8,8 @@ import json
 import sys
 from pathlib import Path
 
+from slam.estimators import ESTIMATORS
+
 HELP = ("run the segmentation front end and SLAM on a recorded side-scan XTF file or FLS "
         ".npy frames + JSON sidecar (needs its navigation)")
 
@@ -19,7 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="segmentation: improved-otsu | otsu | local | isodata | kapur")
     parser.add_argument("--preset", default="auto", help="segmentation preset (default: from image size)")
     parser.add_argument("--normalization", default="column-median", choices=("column-median", "mira"))
-    parser.add_argument("--estimator", default="aekf", help="aekf | fastslam2 | isam2 | aekf-robocentric")
+    parser.add_argument("--estimator", default="aekf", choices=tuple(ESTIMATORS),
+                        help="SLAM estimator (slam.estimators)")
     parser.add_argument("--window", type=int, default=200, help="pings per segmented window")
     parser.add_argument("--hop", type=int, default=100, help="pings between windows")
     parser.add_argument("--altitude", default="first_return", choices=("first_return", "nav"))

@@ -20,9 +20,10 @@ import numpy as np
 
 from sim.frames import wxyz_from_euler
 from sim.viz.meshes import vehicle_body_mesh
+from sim.world.vehicles import VEHICLE_KINDS
 from slam.pipeline.lagged import apply_increment
 
-VEHICLE_CHOICES = ("alister9", "ixn", "naiad", "saga", "rexrov")
+VEHICLE_CHOICES = VEHICLE_KINDS  # the vehicles sim.world defines
 
 
 def _rpy(q) -> tuple[float, float, float]:
