@@ -6,7 +6,7 @@ import cv2
 import gymnasium as gym
 import numpy as np
 
-from sim.envs.base import UnderseaEnv, _rpy
+from sim.envs.base import UnderseaEnv
 from sim.world import SonarWater
 
 #: fast side-scan settings for learning: 128 samples per side over 30 m, one ray along track
@@ -261,4 +261,4 @@ class SonarSurveyEnv(UnderseaEnv):
         return img
 
 
-__all__ = ["FAST_SSS", "SonarSurveyEnv", "_rpy"]
+__all__ = ["FAST_SSS", "SonarSurveyEnv"]
