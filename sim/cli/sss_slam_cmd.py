@@ -34,6 +34,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the result summary as JSON")
 
 
+def _write_result(out: Path, summary: dict) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "result.json").write_text(json.dumps(summary, indent=1))
+
+
 def run_fls(args: argparse.Namespace) -> int:
     """FLS frames (.npy + .json sidecar) through the same pipeline."""
     from dataclasses import replace
@@ -53,9 +58,7 @@ def run_fls(args: argparse.Namespace) -> int:
         return 2
     summary = {"file": str(args.file), **result.summary()}
     if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "result.json").write_text(json.dumps(summary, indent=1))
+        _write_result(Path(args.out), summary)
     if args.json:
         print(json.dumps(summary, indent=1))
     else:
@@ -91,8 +94,7 @@ def run(args: argparse.Namespace) -> int:
     summary = {"file": str(args.file), **result.summary()}
     if args.out:
         out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "result.json").write_text(json.dumps(summary, indent=1))
+        _write_result(out, summary)
         plot_sidescan_slam(wf, result, out / "sss_slam.png")
         summary["figure"] = str(out / "sss_slam.png")
     if args.json:
