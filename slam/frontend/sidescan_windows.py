@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from slam.frontend.observation import SideScanGeometry, range_bearing_from_pixels
 from slam.types import RangeBearing
 
 
@@ -185,57 +186,9 @@ class SidescanProcessor:
     def _detections(
         self, a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay
     ) -> list[Detection]:
-        from slam.frontend.observation import SideScanGeometry, range_bearing_from_pixels
-
         S = img.shape[1] // 2
-        flat_seg = seg_labels.ravel()
-        order = np.argsort(flat_seg, kind="stable")
-        bounds = np.searchsorted(flat_seg[order], np.arange(int(flat_seg.max(initial=0)) + 2))
         rate = self._ping_rate()
-        cand = []
-        for reg in regions:
-            if reg.area_px < self.min_area_px:
-                continue
-            if self.min_area_m2 > 0:  # speckle blobs are small on the ground
-                pk = self.pings[min(a + round(reg.centroid_rc[0]), len(self.pings) - 1)]
-                px_m2 = float(np.median(np.diff(pk.slant_range))) * max(pk.speed, 0.05) / rate
-                if reg.area_px * px_m2 < self.min_area_m2:
-                    continue
-            r, c = reg.centroid_rc
-            k = a + round(r)
-            if not own_lo <= k < own_hi:
-                continue
-            idx = order[bounds[reg.label] : bounds[reg.label + 1]]
-            region_labels = lab.ravel()[idx]
-            objs = region_labels[region_labels > 0]
-            oid = int(np.bincount(objs).argmax()) if objs.size else 0
-            frac = objs.size / max(idx.size, 1)
-            overlay.ravel()[idx] = self.class_of(oid) if oid > 0 else 255
-            port = c < S - 0.5
-            sample = int(np.clip(round((S - 1 - c) if port else (c - S)), 0, S - 1))
-            p = self.pings[k]
-            rs = float(p.slant_range[sample])
-            g = float(np.sqrt(max(rs * rs - p.altitude**2, 0.0)))
-            if g < max(self.min_ground_range, 0.5 * p.altitude):  # nadir band: first return
-                continue
-            r0, c0, r1, c1 = reg.bbox
-            s0 = (S - c1) if port else (c0 - S)  # nearest sample of the box from nadir
-            s1 = (S - 1 - c0) if port else (c1 - 1 - S)
-            sl = p.slant_range[np.clip([s0, s1], 0, S - 1)]
-            gi = np.sqrt(np.clip(sl**2 - p.altitude**2, 0.0, None))
-            cand.append(
-                [
-                    a + r,
-                    c,
-                    port,
-                    g,
-                    reg.area_px,
-                    (a + r0, c0, a + r1, c1),
-                    oid,
-                    frac,
-                    (gi[0], gi[1]),
-                ]
-            )
+        cand = self._candidates(a, S, lab, seg_labels, regions, own_lo, own_hi, overlay, rate)
         # merge regions of one object (single linkage): same side, gap between their
         # footprints (along-track x ground range, metres) below merge_radius
         groups = self._merge(cand, rate)
@@ -293,6 +246,59 @@ class SidescanProcessor:
             )
         out.sort(key=lambda d: (d.t, d.side, d.ground_range))
         return out
+
+    def _candidates(self, a, S, lab, seg_labels, regions, own_lo, own_hi, overlay, rate):
+        """Regions of the owned rows that may be detections: size, ground-area and nadir
+        tests; per region [row, col, port, ground range, area, bbox, object id, object
+        fraction, (near, far) ground range]. Marks each in the overlay."""
+        flat_seg = seg_labels.ravel()
+        order = np.argsort(flat_seg, kind="stable")
+        bounds = np.searchsorted(flat_seg[order], np.arange(int(flat_seg.max(initial=0)) + 2))
+        cand = []
+        for reg in regions:
+            if reg.area_px < self.min_area_px:
+                continue
+            if self.min_area_m2 > 0:  # speckle blobs are small on the ground
+                pk = self.pings[min(a + round(reg.centroid_rc[0]), len(self.pings) - 1)]
+                px_m2 = float(np.median(np.diff(pk.slant_range))) * max(pk.speed, 0.05) / rate
+                if reg.area_px * px_m2 < self.min_area_m2:
+                    continue
+            r, c = reg.centroid_rc
+            k = a + round(r)
+            if not own_lo <= k < own_hi:
+                continue
+            idx = order[bounds[reg.label] : bounds[reg.label + 1]]
+            region_labels = lab.ravel()[idx]
+            objs = region_labels[region_labels > 0]
+            oid = int(np.bincount(objs).argmax()) if objs.size else 0
+            frac = objs.size / max(idx.size, 1)
+            overlay.ravel()[idx] = self.class_of(oid) if oid > 0 else 255
+            port = c < S - 0.5
+            sample = int(np.clip(round((S - 1 - c) if port else (c - S)), 0, S - 1))
+            p = self.pings[k]
+            rs = float(p.slant_range[sample])
+            g = float(np.sqrt(max(rs * rs - p.altitude**2, 0.0)))
+            if g < max(self.min_ground_range, 0.5 * p.altitude):  # nadir band: first return
+                continue
+            r0, c0, r1, c1 = reg.bbox
+            s0 = (S - c1) if port else (c0 - S)  # nearest sample of the box from nadir
+            s1 = (S - 1 - c0) if port else (c1 - 1 - S)
+            sl = p.slant_range[np.clip([s0, s1], 0, S - 1)]
+            gi = np.sqrt(np.clip(sl**2 - p.altitude**2, 0.0, None))
+            cand.append(
+                [
+                    a + r,
+                    c,
+                    port,
+                    g,
+                    reg.area_px,
+                    (a + r0, c0, a + r1, c1),
+                    oid,
+                    frac,
+                    (gi[0], gi[1]),
+                ]
+            )
+        return cand
 
     def _merge(self, cand: list, rate: float) -> list[list]:
         n = len(cand)
