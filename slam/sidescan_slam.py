@@ -1,6 +1,7 @@
 """Front end + SLAM on a recorded side-scan waterfall: real data, no simulator.
 
-The same chain the scenario runner uses on simulated pings, fed from a file
+The same pipeline the scenario runner uses on simulated pings (slam.pipeline.SonarSlam,
+with the :data:`~slam.pipeline.REAL_SIDESCAN` settings), fed from a file
 (:func:`slam.io.xtf.read_xtf` or any :class:`slam.io.waterfall.Waterfall`):
 
 1. navigation → local poses: XTF positions in degrees (lon, lat) are projected
@@ -14,16 +15,15 @@ The same chain the scenario runner uses on simulated pings, fed from a file
    itself an estimate, so this is the dead-reckoning error SLAM is asked to correct.
 3. altitude per ping: the first seabed return (the sonar's own measurement over a flat
    seabed; :func:`slam.frontend.normalization.seabed_mask`) or the file's ``altitude_m``.
-4. windows of the waterfall → normalization → segmentation (improved Otsu by default)
-   → regions → range-bearing observations, each tied to the ping of its
-   centroid (:class:`slam.frontend.sidescan_windows.SidescanProcessor`).
-   Normalization defaults to the along-track column median rather than the thesis's MIRA:
+4. each ping becomes a :class:`slam.pipeline.SonarFrame`; windows of the waterfall →
+   normalization → segmentation (improved Otsu by default) → regions → range-bearing
+   observations, each tied to the ping of its centroid. Normalization defaults to the along-track column median rather than the thesis's MIRA:
    on the real Scotsman recording MIRA's two exponentials cannot follow the bright band
    just beyond the first return, and the threshold then takes whole seabed bands as
    regions of ~40,000 px; ``normalization="mira"`` keeps the thesis's choice.
-5. SLAM offline, in ping order: predict with each ping's odometry, update with the
-   detections of that ping. Offline processing makes the honest timing exact without the
-   runner's fixed lag: every observation meets the pose of its own ping.
+5. SLAM in ping order through the pipeline's fixed-lag feeder
+   (:func:`slam.pipeline.replay.replay`): each
+   ping's odometry is its own predict, every observation meets the pose of its own ping.
 """
 
 from __future__ import annotations
@@ -31,17 +31,24 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from slam.frontend.sidescan_windows import (
-    Detection,
-    PingRecord,
-    SidescanProcessor,
-    make_sss_prepare,
-)
+from slam.frontend.normalization import seabed_mask
+from slam.frontend.sidescan_windows import Detection
 from slam.io.waterfall import Waterfall
+from slam.pipeline import (
+    REAL_SIDESCAN,
+    EstimatorSpec,
+    PipelineConfig,
+    SonarFrame,
+    SonarGeometry,
+    SonarSlam,
+    build_estimator,
+    make_frontend,
+)
+from slam.pipeline.replay import recording_events, replay
 from slam.types import Odometry
 
 EARTH_RADIUS_M = 6_371_008.8  # IUGG mean radius
@@ -49,46 +56,28 @@ EARTH_RADIUS_M = 6_371_008.8  # IUGG mean radius
 
 @dataclass(frozen=True)
 class SidescanSlamConfig:
-    """Settings of :func:`run_sidescan_slam` (units in the names; angles in degrees here,
-    at the configuration boundary only)."""
+    """Settings of :func:`run_sidescan_slam`: the pipeline's (slam.pipeline.PipelineConfig,
+    the recorded-data preset :data:`~slam.pipeline.REAL_SIDESCAN` by default), the
+    estimator, and what only a recording needs: the altitude source ("first_return" |
+    "nav"), the navigation's position units ("auto" | "degrees" | "metres", see
+    :func:`local_poses_from_nav`) and the odometry error the user states
+    (``odometry_sigma_frac`` of the distance travelled; heading random walk in
+    deg/sqrt(s))."""
 
-    method: str = "improved-otsu"
-    preset: str = "auto"
-    window_pings: int = 200
-    hop_pings: int = 100
-    altitude: str = "first_return"  # "first_return" | "nav"
-    merge_radius_m: float = 3.0
-    min_area_m2: float = 0.15
-    min_ground_range_m: float = 2.0
-    looks: int = 3
-    normalization: str = "column-median"  # "column-median" | "mira"
-    nav_units: str = "auto"  # "auto" | "degrees" | "metres" (see local_poses_from_nav)
+    pipeline: PipelineConfig = REAL_SIDESCAN
+    estimator: EstimatorSpec = field(default_factory=EstimatorSpec)
+    altitude: str = "first_return"
+    nav_units: str = "auto"
     odometry_sigma_frac: float = 0.02
     heading_sigma_deg_per_sqrt_s: float = 0.2
-    estimator: str = "aekf"
-    estimator_params: Mapping = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.altitude not in ("first_return", "nav"):
             raise ValueError(f"altitude: got {self.altitude!r}; allowed: first_return, nav")
-        if not 1 <= self.hop_pings <= self.window_pings:
-            raise ValueError(
-                f"hop_pings must be in [1, window_pings={self.window_pings}], got {self.hop_pings}"
-            )
         for name in ("odometry_sigma_frac", "heading_sigma_deg_per_sqrt_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be > 0, got {v}")
-        for name in ("merge_radius_m", "min_area_m2", "min_ground_range_m"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be >= 0, got {v}")
-        if self.normalization not in ("column-median", "mira"):
-            raise ValueError(
-                f"normalization: got {self.normalization!r}; allowed: column-median, mira"
-            )
-        if self.looks < 1:
-            raise ValueError(f"looks must be >= 1, got {self.looks}")
 
 
 @dataclass(frozen=True)
@@ -192,16 +181,22 @@ def local_poses_from_nav(
 
 
 def odometry_between(
-    p0: np.ndarray, p1: np.ndarray, dt: float, sigma_frac: float, heading_sigma_rad_sqrt_s: float
+    p0: np.ndarray,
+    p1: np.ndarray,
+    dt: float,
+    sigma_frac: float,
+    heading_sigma_rad_sqrt_s: float,
+    t: float = 0.0,
 ) -> Odometry:
     """Body-frame increment from pose ``p0`` to ``p1`` (the AEKF motion model's inverse),
-    with covariance ``diag((σ_f d)², (σ_f d)², σ_ψ² dt)``; d floored at 1 cm."""
+    ending at time ``t``, with covariance ``diag((σ_f d)², (σ_f d)², σ_ψ² dt)``; d floored
+    at 1 cm."""
     dx, dy = p1[0] - p0[0], p1[1] - p0[1]
     c, s = math.cos(p0[2]), math.sin(p0[2])
     dphi = (p1[2] - p0[2] + math.pi) % (2 * math.pi) - math.pi
     d = max(math.hypot(dx, dy), 0.01)
     cov = np.diag([(sigma_frac * d) ** 2, (sigma_frac * d) ** 2, heading_sigma_rad_sqrt_s**2 * max(dt, 1e-3)])
-    return Odometry(delta=[c * dx + s * dy, -s * dx + c * dy, dphi], cov=cov, t=0.0)
+    return Odometry(delta=[c * dx + s * dy, -s * dx + c * dy, dphi], cov=cov, t=t)
 
 
 def ping_altitudes(wf: Waterfall, source: str) -> np.ndarray:
@@ -211,8 +206,6 @@ def ping_altitudes(wf: Waterfall, source: str) -> np.ndarray:
         if "altitude_m" not in wf.nav:
             raise ValueError("altitude='nav' but the recording has no altitude_m navigation")
         return np.asarray(wf.nav["altitude_m"], dtype=np.float64)
-    from slam.frontend.normalization import seabed_mask
-
     s = wf.samples_per_side
     mask = seabed_mask(wf)
     stbd_first = np.argmax(mask[:, s:], axis=1)
@@ -220,92 +213,56 @@ def ping_altitudes(wf: Waterfall, source: str) -> np.ndarray:
     return (0.5 * (stbd_first + port_first) + 0.5) * wf.slant_range_m / s
 
 
-def _segmenter(method: str, preset: str):
-    from slam.frontend.segmentation.methods import segment
-
-    def run(img: np.ndarray):
-        res = segment(img, method=method, params=preset)
-        return res.labels, list(res.regions)
-
-    return run
-
-
 def run_sidescan_slam(wf: Waterfall, config: SidescanSlamConfig | None = None) -> SidescanSlamResult:
     """Run the front end and SLAM over a recorded waterfall (see the module docstring)."""
-    from slam.estimators import make_estimator
-
     cfg = config or SidescanSlamConfig()
     t_start = time.perf_counter()
     poses_all, valid, origin = local_poses_from_nav(wf.nav, cfg.nav_units)
     t_all = np.asarray(wf.time_s, dtype=np.float64)
     valid &= np.isfinite(t_all)
     keep = np.flatnonzero(valid)
-    if keep.size < cfg.window_pings // 2:
+    pipe = cfg.pipeline
+    if keep.size < pipe.window_pings // 2:
         raise ValueError(
-            f"only {keep.size} navigated pings; need at least window_pings/2 = {cfg.window_pings // 2}"
+            f"only {keep.size} navigated pings; need at least window_pings/2 = {pipe.window_pings // 2}"
         )
+    pipe = replace(
+        pipe, window_pings=min(pipe.window_pings, keep.size), hop_pings=min(pipe.hop_pings, keep.size)
+    )
     poses = poses_all[keep]
     t = t_all[keep]
-    alt_all = ping_altitudes(wf, cfg.altitude)
-    alt = alt_all[keep]
+    alt = ping_altitudes(wf, cfg.altitude)[keep]
     if not np.all(np.isfinite(alt)):
         raise ValueError("altitude has non-finite values on navigated pings")
     step = np.hypot(*np.diff(poses[:, :2], axis=0).T)
     dt = np.diff(t)
     speed = np.concatenate([[0.0], step / np.where(dt > 0, dt, np.inf)])
     speed[0] = speed[1] if speed.size > 1 else 0.0
-    s = wf.samples_per_side
-
-    # 1) detections over all windows (each tied to the ping of its centroid)
-    proc = SidescanProcessor(
-        _segmenter(cfg.method, cfg.preset),
-        min(cfg.window_pings, keep.size),
-        min(cfg.hop_pings, keep.size),
-        merge_radius=cfg.merge_radius_m,
-        min_area_m2=cfg.min_area_m2,
-        min_ground_range=cfg.min_ground_range_m,
-        prepare=make_sss_prepare(False, 0.0, looks=cfg.looks, normalization=cfg.normalization),
-    )
-    zeros = np.zeros(2 * s, np.int32)
-    detections: list[Detection] = []
-    n_windows = 0
-    for i, k in enumerate(keep):
-        slant = (np.arange(s) + 0.5) * wf.slant_range_m[k] / s
-        res = proc.add(
-            PingRecord(float(t[i]), wf.intensity[k], zeros, slant, float(alt[i]), poses[i], float(speed[i]))
+    frames = sidescan_frames(wf, keep, alt, speed)
+    odometry = [
+        odometry_between(
+            poses[i - 1],
+            poses[i],
+            float(dt[i - 1]),
+            cfg.odometry_sigma_frac,
+            math.radians(cfg.heading_sigma_deg_per_sqrt_s),
+            t=float(t[i]),
         )
-        if res is not None:
-            n_windows += 1
-            detections.extend(res.detections)
-    res = proc.flush()
-    if res is not None:
-        n_windows += 1
-        detections.extend(res.detections)
-    t_front = time.perf_counter()
-
-    # 2) SLAM in ping order
-    est = make_estimator(
-        cfg.estimator,
-        x0=poses[0].copy(),
-        P0=np.diag([1e-4, 1e-4, math.radians(0.5) ** 2]),
-        **dict(cfg.estimator_params),
-    )
-    by_ping: dict[int, list] = {}
-    for d in detections:
-        by_ping.setdefault(d.ping, []).append(d.observation)
-    sig_h = math.radians(cfg.heading_sigma_deg_per_sqrt_s)
-    est_poses = np.empty_like(poses)
-    est_cov = np.empty((len(poses), 3, 3))
-    for i in range(len(poses)):
-        if i > 0:
-            est.predict(
-                odometry_between(poses[i - 1], poses[i], float(dt[i - 1]), cfg.odometry_sigma_frac, sig_h)
-            )
-        if i in by_ping:
-            est.update(by_ping[i])
-        est_poses[i], est_cov[i] = est.pose()
-    lm, lm_cov = est.landmarks()
+        for i in range(1, len(poses))
+    ]
+    est = build_estimator(cfg.estimator, poses[0], pipe)
+    frontend = make_frontend(frames[0].geometry, pipe)
+    slam = SonarSlam({"sss": frontend}, est, pipe, t0=float(t[0]), pose0=poses[0], record_dt=0.0)
+    outs, _ = replay(slam, recording_events(frames, odometry))
     t_end = time.perf_counter()
+    detections = [d for o in outs if o.window is not None for d in o.window.detections]
+    hist = slam.lagged.history
+    ht = np.array([r.t for r in hist])
+    at = np.searchsorted(ht, t, side="right") - 1
+    x0, P0 = poses[0], pipe.initial_covariance()
+    est_poses = np.array([hist[j].x[:3] if j >= 0 else x0 for j in at])
+    est_cov = np.array([hist[j].P[:3, :3] if j >= 0 else P0 for j in at])
+    lm, lm_cov = est.landmarks()
     return SidescanSlamResult(
         pings=keep,
         nav_poses=poses,
@@ -315,10 +272,33 @@ def run_sidescan_slam(wf: Waterfall, config: SidescanSlamConfig | None = None) -
         landmarks=np.asarray(lm).reshape(-1, 2),
         landmark_cov=np.asarray(lm_cov).reshape(-1, 2, 2),
         detections=detections,
-        n_windows=n_windows,
-        timing_s={"frontend": t_front - t_start, "slam": t_end - t_front, "total": t_end - t_start},
+        n_windows=sum(1 for o in outs if o.window is not None),
+        timing_s={"total": t_end - t_start},
         origin=origin,
     )
+
+
+def sidescan_frames(wf: Waterfall, keep: np.ndarray, alt: np.ndarray, speed: np.ndarray) -> list:
+    """The kept pings of a waterfall as pipeline frames (slant ranges from each ping's
+    range setting; linear intensity)."""
+    s = wf.samples_per_side
+    frames = []
+    geom = None
+    for i, k in enumerate(keep):
+        slant = (np.arange(s) + 0.5) * wf.slant_range_m[k] / s
+        if geom is None or not np.array_equal(geom.ranges, slant):
+            geom = SonarGeometry("sss", slant)
+        frames.append(
+            SonarFrame(
+                "sss",
+                np.asarray(wf.intensity[k], np.float32),
+                geom,
+                float(wf.time_s[k]),
+                altitude=float(alt[i]),
+                speed=float(speed[i]),
+            )
+        )
+    return frames
 
 
 def plot_sidescan_slam(wf: Waterfall, result: SidescanSlamResult, path) -> None:

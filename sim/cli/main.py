@@ -55,7 +55,7 @@ def build_parser(argv: Sequence[str]) -> argparse.ArgumentParser:
                 module = _load(name)
             except ModuleNotFoundError as exc:
                 if exc.name and exc.name.startswith("sim.cli."):
-                    raise SystemExit(f"undersea: command {name!r} is not available yet") from exc
+                    raise SystemExit(f"undersea: command {name!r}: module {exc.name} missing (broken install)") from exc
                 raise SystemExit(
                     f"undersea {name}: missing dependency {exc.name!r}: {exc}"
                 ) from exc

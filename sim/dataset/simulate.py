@@ -1,16 +1,16 @@
 """One shard's simulation: physics + guidance + the selected sonars, nothing else.
 
 The world, the vehicles' autopilots and the sonars are built by the scenario runner
-(:class:`sim.runner.core.ScenarioRun`, with SLAM and front end switched off), so a dataset
-sees exactly the scenario ``undersea run`` simulates. The runner's loop also polls the
-navigation sensors and feeds SLAM, which a dataset does not need, so this module has its
-own lean loop with the same timing rules: every control tick (``scenario.control_dt``)
-each autopilot turns the true state into a wrench demand, then physics advances in whole
-steps to each sonar ping due inside the tick.
+(:class:`sim.runner.schedule.ScenarioRun`, with SLAM and front end switched off), so a
+dataset sees exactly the scenario ``undersea run`` simulates, and the clock is the
+runner's (:func:`sim.runner.schedule.advance_tick`: every control tick each autopilot
+turns the true state into a wrench demand, then physics advances in whole steps to each
+sonar ping due inside the tick). Navigation and SLAM are not run.
 
-Intensities are taken *linear* (µPa² after TVG): the sonar's log compression is switched
-off on the instance, and the display image is made afterwards with the same
-:func:`sim.sonar.acoustics.compress_log` and display floor the simulator would have used.
+Intensities are taken *linear* (µPa² after TVG): the sonars are built without log
+compression (``ScenarioRun(linear_sonars=True)``), and the display image is made
+afterwards with the same :func:`sim.sonar.acoustics.compress_log` and display floor the
+simulator would have used.
 """
 
 from __future__ import annotations
@@ -21,7 +21,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from sim.runner.schedule import ScenarioRun, advance_tick
 from sim.scenario.schema import OutputSpec, Scenario, parse_scenario
+from sim.sonar import preset
 
 
 @dataclass(frozen=True)
@@ -109,8 +111,6 @@ def frame_period(
     """Expected simulated seconds per exported frame over all selected sonars.
 
     Raises ValueError when the scenario carries no sonar of the selected kinds."""
-    from sim.sonar import preset
-
     rate = 0.0
     found = {"sss": [], "fls": [], "msis": []}
     for v in scn.vehicles:
@@ -153,19 +153,16 @@ class ShardSimulation:
     def __init__(
         self, scn: Scenario, kinds: tuple[str, ...], tile_pings: int, fls_interval_s: float
     ) -> None:
-        from sim.runner.core import ScenarioRun
-
         self.scn = scn
         self.tile_pings = tile_pings
-        self.run = ScenarioRun(scn)
+        # linear intensities out; display compression is redone by the exporter
+        self.run = ScenarioRun(scn, linear_sonars=True)
         self.tracks: list[_Track] = []
         for v in self.run.vehicles:
             for s in v.sonars:
                 if s.kind not in kinds:
                     continue
-                cfg = s.sonar.config
-                # linear intensities out; display compression is redone by the exporter
-                s.sonar.config = replace(cfg, acoustic=replace(cfg.acoustic, log_compression=False))
+                cfg = preset(s.spec.preset, **dict(s.spec.overrides))  # as displayed
                 k = fls_every(cfg.ping_rate_hz, fls_interval_s) if s.kind == "fls" else 1
                 self.tracks.append(_Track(v, s, s.period * k, config=cfg))
         if not self.tracks:
@@ -188,15 +185,12 @@ class ShardSimulation:
         within ``max_sim_s`` simulated seconds after the offset."""
         run, w, tracks = self.run, self.run.world, self.tracks
         dt_c = self.scn.control_dt
-        phys = w.timestep
-        n_tick = max(1, round(dt_c / phys))
-
-        def guide() -> None:
-            for v in run.vehicles:
-                v.handle.apply_wrench_demand(v.autopilot.update(v.handle.state(), dt_c))
+        n_tick = max(1, round(dt_c / w.timestep))
+        pilots = [(v.handle, v.autopilot) for v in run.vehicles]
 
         for _ in range(math.floor(offset_s / dt_c + 1e-9)):
-            guide()
+            for handle, ap in pilots:
+                handle.apply_wrench_demand(ap.update(handle.state(), dt_c))
             w.step(n_tick)
         t0 = w.time
         for tr in tracks:
@@ -204,6 +198,13 @@ class ShardSimulation:
             tr.buffer = []
         limit = t0 + (max_sim_s if max_sim_s is not None else math.inf)
         produced = 0
+        fired: list[SonarFrame] = []
+
+        def on_ping(k: int) -> None:
+            frame = _fire(tracks[k], w, 0, self.tile_pings)
+            if frame is not None:
+                fired.append(frame)
+
         while produced < n_frames:
             if w.time > limit:
                 raise RuntimeError(
@@ -211,26 +212,15 @@ class ShardSimulation:
                     + (" passed the frame filter" if accept is not None else "")
                     + f" in {w.time - t0:.0f} s of simulation after the offset {offset_s:g} s"
                 )
-            guide()
-            t_end = w.time + dt_c
-            while True:
-                k = min(range(len(tracks)), key=lambda i: (tracks[i].next_t, i))
-                tr = tracks[k]
-                if tr.next_t > t_end + 1e-9:
-                    break
-                n = max(0, round((tr.next_t - w.time) / phys))
-                if n:
-                    w.step(n)
-                frame = _fire(tr, w, produced, self.tile_pings)
-                tr.next_t += tr.period
-                if frame is not None and (accept is None or accept(frame)):
+            fired.clear()
+            advance_tick(w, pilots, tracks, dt_c, on_ping)
+            for frame in fired:  # numbered as they are accepted
+                frame = replace(frame, index=produced)
+                if accept is None or accept(frame):
                     yield frame
                     produced += 1
                     if produced >= n_frames:
                         return
-            n = max(0, round((t_end - w.time) / phys))
-            if n:
-                w.step(n)
 
 
 def _fire(tr: _Track, w, index: int, tile_pings: int) -> SonarFrame | None:

@@ -8,8 +8,25 @@ import numpy as np
 
 from sim.envs.base import UnderseaEnv
 from sim.envs.sonar_survey import FAST_SSS
+from sim.runner.metrics import match_landmarks
+from sim.viz import rerun_log as L
+from sim.world import SonarWater
+from slam.pipeline import (
+    EstimatorSpec,
+    FrameTruth,
+    PipelineConfig,
+    SonarFrame,
+    SonarGeometry,
+    SonarSlam,
+    build_estimator,
+    make_frontend,
+)
+from slam.types import Odometry
 
 K_LANDMARKS = 8
+#: the scenario pipeline with 64-ping windows (hop 32): one ping per step, so a window
+#: of the scenario default (200) would hold SLAM 20 s behind the agent
+PIPELINE = PipelineConfig(window_pings=64, hop_pings=32)
 
 
 class ActiveSLAMEnv(UnderseaEnv):
@@ -21,8 +38,8 @@ class ActiveSLAMEnv(UnderseaEnv):
     a branch; layout from ``layout_seed``). The full undersea pipeline runs inside the env:
     ray-cast sonar -> waterfall windows (64 pings, hop 32) -> MIRA normalization ->
     improved Otsu segmentation -> side-scan observation model -> AEKF-SLAM fed in time
-    order at the pose of each detection's ping (sim.runner.lagged; the filter lags one
-    window behind, the current pose is its estimate dead-reckoned forward). Odometry comes
+    order at the pose of each detection's ping (slam.pipeline.SonarSlam, the pipeline of
+    the scenario runner with :data:`PIPELINE`'s windows; the filter lags one window behind, the current pose is its estimate dead-reckoned forward). Odometry comes
     from the vehicle's DVL + gyro dead reckoning (sim.navigation).
 
     ## Action Space
@@ -102,7 +119,6 @@ class ActiveSLAMEnv(UnderseaEnv):
         )
 
     def _build(self, layout_seed: int) -> None:
-        from sim.runner.core import _SonarWater
         from sim.sonar import SideScanSonar, preset
         from sim.world import ObjectSpec
 
@@ -133,37 +149,24 @@ class ActiveSLAMEnv(UnderseaEnv):
             (h.site_ids["sss_port"], h.site_ids["sss_starboard"]),
             w.geom_object_id,
             w.geom_reflectivity,
-            _SonarWater(w.water),
+            SonarWater(w.water),
             static_mesh=w.static_mesh(),
         )
         self.truth_xy = np.array([np.asarray(o.position)[:2] for o in w.objects]).reshape(-1, 2)
 
     def _new_slam(self, pose0: np.ndarray) -> None:
-        from sim.runner.lagged import LaggedSlam
-        from slam.estimators import make_estimator
-        from slam.frontend.segmentation.methods import segment
-        from slam.frontend.sidescan_windows import SidescanProcessor, make_sss_prepare
-
-        def seg(img):
-            r = segment(img, method="improved-otsu", params="auto")
-            return r.labels, list(r.regions)
-
-        kw = (
-            {"rng": np.random.default_rng(int(self.np_random.integers(2**63)))}
-            if self.estimator_name == "fastslam2"
-            else {}
-        )
-        est = make_estimator(self.estimator_name, x0=pose0, P0=np.diag([0.01, 0.01, 1e-4]), **kw)
-        self.slam = LaggedSlam(est, t0=self.world.time)
         c = self._sss_cfg
-        self.processor = SidescanProcessor(
-            seg,
-            64,
-            32,
-            merge_radius=3.0,
+        self._geometry = SonarGeometry(
+            "sss",
+            self.sonar.ranges,
             along_track_beamwidth_deg=c.along_track_beamwidth_deg,
-            prepare=make_sss_prepare(c.acoustic.log_compression, c.acoustic.dynamic_range_db),
+            log_compressed=c.acoustic.log_compression,
+            dynamic_range_db=c.acoustic.dynamic_range_db,
         )
+        rng = np.random.default_rng(int(self.np_random.integers(2**63)))
+        est = build_estimator(EstimatorSpec(self.estimator_name), pose0, PIPELINE, rng)
+        frontend = make_frontend(self._geometry, PIPELINE)
+        self.slam = SonarSlam({"sss": frontend}, est, PIPELINE, t0=self.world.time)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -190,8 +193,6 @@ class ActiveSLAMEnv(UnderseaEnv):
         return u
 
     def _map_score(self) -> tuple[float, int, int]:
-        from sim.runner.metrics import match_landmarks
-
         means, _ = self.slam.estimator.landmarks()
         ei, _, d = match_landmarks(means, self.truth_xy, 5.0)
         rmse = float(np.sqrt(np.mean(d**2))) if len(d) else 0.0
@@ -223,45 +224,29 @@ class ActiveSLAMEnv(UnderseaEnv):
         return {"nav": o, "landmarks": lm}
 
     def step(self, action):
-        from slam.frontend.sidescan_windows import PingRecord
-        from slam.types import Odometry
-
         u, clipped = self._check_action(action)
         st = self._advance(u)
         inc = self._last_inc
         self.slam.add_odometry(Odometry(inc.delta, inc.cov, inc.t))
         ping = self.sonar.ping(self.world.data, self._sonar_rng)
-        S = ping.samples_per_side
-        alt = ping.altitude
-        if np.isfinite(alt):
-            pose_true = np.array(
-                [st.position[0], st.position[1], float(self.true_info(st)["true_yaw"])]
-            )
-            speed = float(np.linalg.norm(self._nav_meas["v"][:2]))
-            res = self.processor.add(
-                PingRecord(
-                    ping.time,
-                    ping.intensity,
-                    ping.labels,
-                    ping.slant_range[S:],
-                    float(alt),
-                    pose_true,
-                    max(speed, 0.1),
+        pose_true = np.array([st.position[0], st.position[1], float(self.true_info(st)["true_yaw"])])
+        frame = SonarFrame(
+            "sss",
+            ping.intensity,
+            self._geometry,
+            ping.time,
+            altitude=ping.altitude,
+            speed=float(np.linalg.norm(self._nav_meas["v"][:2])),
+            truth=FrameTruth(ping.labels, pose_true),
+        )
+        out = self.slam.add_frame(frame)
+        if out.window is not None:
+            self.n_detections += len(out.window.detections)
+            if self._rec is not None:
+                L.log_sonar_image(
+                    self._rec, self.vehicle.name, "sss", out.window.image, out.window.overlay
                 )
-            )
-            if res is not None:
-                self.n_detections += len(res.detections)
-                by_t: dict = {}
-                for d in res.detections:
-                    by_t.setdefault(d.t, []).append(d.observation)
-                for t, obs in sorted(by_t.items()):
-                    if t >= self.slam.t_done:
-                        self.slam.add_observations(t, obs)
-                self.slam.release(res.horizon_t)
-                if self._rec is not None:
-                    from sim.viz import rerun_log as L
-
-                    L.log_sonar_image(self._rec, self.vehicle.name, "sss", res.image, res.overlay)
+        self.slam.release(st.t)
         collided = self._collided(st)
         U = self._uncertainty()
         E, mapped, spurious = self._map_score()
@@ -283,14 +268,12 @@ class ActiveSLAMEnv(UnderseaEnv):
             "objects_mapped": mapped,
             "spurious_landmarks": spurious,
             "n_detections": self.n_detections,
-            "slam_lag_s": st.t - self.slam.t_done,
+            "slam_lag_s": st.t - self.slam.lagged.t_done,
             "action_clipped": clipped,
             "collided": collided,
         }
         self._log_step(st, reward, {"uncertainty_m": U, "landmark_rmse_m": E})
         if self._rec is not None:
-            from sim.viz import rerun_log as L
-
             means, covs = self.slam.estimator.landmarks()
             if len(means):
                 L.log_landmarks(

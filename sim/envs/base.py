@@ -18,21 +18,12 @@ import cv2
 import gymnasium as gym
 import numpy as np
 
-from sim.frames import wxyz_from_euler
-from sim.runner.lagged import apply_increment
+from sim.frames import euler_from_wxyz, wxyz_from_euler
+from sim.viz.meshes import vehicle_body_mesh
+from sim.world.vehicles import VEHICLE_KINDS
+from slam.pipeline.lagged import apply_increment
 
-VEHICLE_CHOICES = ("alister9", "ixn", "naiad", "saga", "rexrov")
-
-
-def _rpy(q) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) of a unit wxyz quaternion (same convention as sim.frames, without
-    its validation: the physics state is already a unit quaternion)."""
-    w, x, y, z = (float(v) for v in q)
-    return (
-        float(np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))),
-        float(np.arcsin(min(1.0, max(-1.0, 2 * (w * y - z * x))))),
-        float(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))),
-    )
+VEHICLE_CHOICES = VEHICLE_KINDS  # the vehicles sim.world defines
 
 
 @dataclass(frozen=True)
@@ -163,7 +154,7 @@ class UnderseaEnv(gym.Env):
         self.world.step(self.frame_skip)
         st = self.vehicle.state()
         if self.nav is None:  # ideal navigation: the true state
-            roll, pitch, yaw = _rpy(st.quat_wxyz)
+            roll, pitch, yaw = euler_from_wxyz(st.quat_wxyz)
             m = self._nav_meas
             m["v"] = st.velocity_body
             m["r"] = float(st.angular_velocity_body[2])
@@ -203,7 +194,7 @@ class UnderseaEnv(gym.Env):
         """Ground truth for info (never in the observation)."""
         return {
             "true_position": st.position.copy(),
-            "true_yaw": _rpy(st.quat_wxyz)[2],
+            "true_yaw": euler_from_wxyz(st.quat_wxyz)[2],
             "true_velocity_body": st.velocity_body.copy(),
             "nav_position_error_m": float(np.linalg.norm(self._nav_pose[:2] - st.position[:2])),
             "time_s": st.t,
@@ -247,7 +238,7 @@ class UnderseaEnv(gym.Env):
             cv2.polylines(
                 img, [self._world_to_px(np.array(self._trail))], False, (255, 255, 255), 1
             )
-        yaw = _rpy(st.quat_wxyz)[2]
+        yaw = euler_from_wxyz(st.quat_wxyz)[2]
         L = max(3.0, self.arena_size / 60)
         tri = np.array([[L, 0], [-L / 2, L / 2], [-L / 2, -L / 2]])
         c, s = np.cos(yaw), np.sin(yaw)
@@ -279,7 +270,6 @@ class UnderseaEnv(gym.Env):
         L.log_annotations(self._rec)
         v, f, _ = self.world.static_mesh()
         L.log_seabed(self._rec, v, f)
-        from sim.runner.core import vehicle_body_mesh
 
         mesh = vehicle_body_mesh(self.world.model, self.world.data, self.vehicle.body_id)
         if mesh is not None:

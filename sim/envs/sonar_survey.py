@@ -6,7 +6,8 @@ import cv2
 import gymnasium as gym
 import numpy as np
 
-from sim.envs.base import UnderseaEnv, _rpy
+from sim.envs.base import UnderseaEnv
+from sim.world import SonarWater
 
 #: fast side-scan settings for learning: 128 samples per side over 30 m, one ray along track
 FAST_SSS = {
@@ -109,7 +110,6 @@ class SonarSurveyEnv(UnderseaEnv):
             raise ValueError(
                 f"sonar = {sonar!r}; allowed: a side-scan preset (deepeye340d, deepeye680d, klein3500)"
             )
-        from sim.runner.core import _SonarWater
 
         w = self.world
         h = self.vehicle
@@ -120,7 +120,7 @@ class SonarSurveyEnv(UnderseaEnv):
             (h.site_ids["sss_port"], h.site_ids["sss_starboard"]),
             w.geom_object_id,
             w.geom_reflectivity,
-            _SonarWater(w.water),
+            SonarWater(w.water),
             static_mesh=w.static_mesh(),
         )
         self.area_size = float(area_size)
@@ -261,4 +261,4 @@ class SonarSurveyEnv(UnderseaEnv):
         return img
 
 
-__all__ = ["FAST_SSS", "SonarSurveyEnv", "_rpy"]
+__all__ = ["FAST_SSS", "SonarSurveyEnv"]

@@ -183,3 +183,43 @@ def plot_sss_mosaic(
     fig.savefig(out)
     plt.close(fig)
     return out
+
+
+def write_figures(run, out) -> None:
+    """The figures of a finished ScenarioRun into the RunDirectory ``out``:
+    trajectory_map.png and, with side-scan pings, sss_mosaic.png."""
+    objs = [(o.class_name, np.asarray(o.position), np.asarray(o.size)) for o in run.world.objects]
+    vd = []
+    mos = {}
+    dets_by = {}
+    sx, sy = run.scn.world.size_m
+    ext = (-sx / 2, sx / 2, -sy / 2, sy / 2)
+    for v in run.vehicles:
+        lag = v.lagged
+        est = np.array([r.x[:2] for r in lag.history]) if lag and lag.history else np.zeros((0, 2))
+        means, covs = lag.estimator.landmarks() if lag else (np.zeros((0, 2)), np.zeros((0, 2, 2)))
+        dets = v.tally.detections
+        vd.append(
+            VehiclePlotData(
+                v.spec.name,
+                np.array(v.true_pose)[:, :2],
+                est,
+                np.asarray(means).reshape(-1, 2),
+                np.asarray(covs).reshape(-1, 2, 2),
+                np.array([d.world_xy_true_pose for _, d in dets]).reshape(-1, 2),
+            )
+        )
+        for s in v.sonars:
+            if s.kind == "sss" and s.sss_pings:
+                poses = np.array([p[0] for p in s.sss_pings])
+                g = np.array([p[1] for p in s.sss_pings])
+                inten = np.array([p[2] for p in s.sss_pings])
+                xy = sss_sample_world_xy(poses, g)
+                key = f"{v.spec.name}/{s.spec.name}"
+                mos[key] = (mosaic_grid(xy.reshape(-1, 2), inten.reshape(-1), ext, 0.5), ext)
+                dets_by[key] = np.array(
+                    [d.world_xy_true_pose for sn, d in dets if sn == s.spec.name]
+                ).reshape(-1, 2)
+    plot_trajectory_map(out.path("trajectory_map.png"), vd, objs, title=run.scn.name, extent=ext)
+    if mos:
+        plot_sss_mosaic(out.path("sss_mosaic.png"), mos, dets_by, objs, title=run.scn.name)

@@ -14,24 +14,36 @@ y north, z up (depth = -z). Annotated example: ``assets/scenarios/shipwreck-surv
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-# --- names other parts of undersea accept (CONTRACTS.md / issues 2-5) -------------------
-VEHICLE_KINDS = ("alister9", "ixn", "naiad", "saga", "rexrov")
-SONAR_PRESETS = ("deepeye340d", "deepeye680d", "klein3500", "blueview_p900_90", "msis")
-SIDESCAN_PRESETS = ("deepeye340d", "deepeye680d", "klein3500")
-SEABED_KINDS = ("flat", "ripples", "slope", "rocks", "grid")
-OBJECT_CLASSES = ("shipwreck", "rock", "tree_branch", "mannequin", "pipe", "tyre", "sensor_node")
+import numpy as np
+
+from sim.sonar.config import PRESETS as _SONAR_PRESET_CONFIGS
+from sim.sonar.config import SSSConfig
+from sim.sonar.config import preset as sonar_preset
+from sim.world.objects import OBJECT_KINDS
+from sim.world.seabed import SEABED_KINDS
+from sim.world.vehicles import VEHICLE_KINDS
+from slam.estimators import ESTIMATORS as _ESTIMATOR_MODULES
+from slam.estimators import make_estimator
+from slam.frontend.segmentation.methods import METHODS as _SEGMENTATION_METHODS
+from slam.frontend.segmentation.presets import PRESETS as _SEGMENTATION_PRESETS
+from slam.pipeline.config import TIMING_MODES
+
+# --- names a scenario may use: each read from where the things are defined -------------
+SONAR_PRESETS = tuple(_SONAR_PRESET_CONFIGS)
+SIDESCAN_PRESETS = tuple(k for k, c in _SONAR_PRESET_CONFIGS.items() if isinstance(c, SSSConfig))
+OBJECT_CLASSES = OBJECT_KINDS
+FRONTEND_METHODS = (*_SEGMENTATION_METHODS, "none")
+FRONTEND_PRESETS = ("auto", *_SEGMENTATION_PRESETS)
+ESTIMATORS = (*_ESTIMATOR_MODULES, "none")
 MISSION_TYPES = ("lawnmower", "loop", "line", "waypoints", "hold")
-FRONTEND_METHODS = ("improved-otsu", "otsu", "local", "isodata", "kapur", "none")
-FRONTEND_PRESETS = ("auto", "high-res-sss", "low-res-sss", "fls", "sdvd")
-ESTIMATORS = ("aekf", "fastslam2", "isam2", "none")
 NAV_SENSORS = ("imu", "dvl", "depth", "ahrs", "gps")
-TIMING_MODES = ("lagged", "naive")
 
 
 class ScenarioError(ValueError):
@@ -428,8 +440,10 @@ def _parse_slam(d, path, base: SlamSpec) -> SlamSpec:
     _check_keys(d, path, ("estimator", "params", "timing", "association_gate_m"))
     params = dict(base.params)
     params.update(_scalar_overrides(d.get("params", {}), f"{path}.params"))
+    estimator = _str(d.get("estimator", base.estimator), f"{path}.estimator", ESTIMATORS)
+    _check_estimator_params(estimator, params, f"{path}.params")
     return SlamSpec(
-        estimator=_str(d.get("estimator", base.estimator), f"{path}.estimator", ESTIMATORS),
+        estimator=estimator,
         params=params,
         timing=_str(d.get("timing", base.timing), f"{path}.timing", TIMING_MODES),
         association_gate_m=_num(
@@ -440,6 +454,28 @@ def _parse_slam(d, path, base: SlamSpec) -> SlamSpec:
             lo_open=True,
         ),
     )
+
+
+def _check_estimator_params(name: str, params: Mapping[str, Any], path: str) -> None:
+    """Validate ``slam.params`` against the estimator's own config by building it once
+    (a typo is an error naming the field; an optional dependency missing, as gtsam for
+    iSAM2, is reported at run time instead)."""
+    if name == "none":
+        if params:
+            raise _fail(path, dict(params), "no params for estimator 'none'")
+        return
+    try:
+        make_estimator(name, x0=np.zeros(3), P0=np.eye(3) * 0.01, **dict(params))
+    except ImportError:
+        return
+    except TypeError as exc:
+        m = re.search(r"unexpected keyword argument '(\w+)'", str(exc))
+        key = m.group(1) if m else "?"
+        raise ScenarioError(
+            f"scenario field '{path}.{key}': not a parameter of estimator {name!r} ({exc})"
+        ) from exc
+    except ValueError as exc:
+        raise ScenarioError(f"scenario field '{path}': {exc}") from exc
 
 
 def _parse_sonar(d, path) -> SonarSpec:
@@ -457,12 +493,8 @@ def _parse_sonar(d, path) -> SonarSpec:
 
 
 def _check_sonar_overrides(preset: str, overrides: dict, path: str) -> None:
-    """Validate overrides against the sonar's own config dataclass when sim.sonar is
-    importable (its ValueError names the field and the allowed range)."""
-    try:
-        from sim.sonar.config import preset as sonar_preset
-    except ImportError:  # sonar package not landed: checked again at run time
-        return
+    """Validate overrides against the sonar's own config dataclass (its ValueError names
+    the field and the allowed range)."""
     try:
         sonar_preset(preset, **dict(overrides))
     except (ValueError, TypeError) as exc:

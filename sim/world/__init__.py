@@ -26,7 +26,7 @@ from sim.world.objects import OBJECT_CLASSES, OBJECT_KINDS, ObjectSpec, scatter_
 from sim.world.seabed import SEABED_KINDS, Seabed, SeabedSpec
 from sim.world.vehicle import VehicleHandle
 from sim.world.vehicles import SWARMS_VEHICLES, VEHICLE_KINDS, VEHICLES
-from sim.world.water import Water, mackenzie_sound_speed, seawater_density
+from sim.world.water import SonarWater, Water, mackenzie_sound_speed, seawater_density
 
 __all__ = [
     "OBJECT_CLASSES",
@@ -41,6 +41,7 @@ __all__ = [
     "ObjectSpec",
     "Seabed",
     "SeabedSpec",
+    "SonarWater",
     "VehicleHandle",
     "VehicleSpec",
     "Water",

@@ -130,3 +130,14 @@ class Water:
     def sound_speed_at(self, depth_m) -> np.ndarray | float:
         """Mackenzie sound speed at the given depth(s) below the surface, m/s."""
         return mackenzie_sound_speed(self.temperature_c, self.salinity_psu, depth_m)
+
+
+class SonarWater:
+    """A :class:`Water` seen through the sonar simulators' WaterLike protocol: ``depth``
+    is that of the datum (z = 0 lies ``surface_z`` below the surface), m."""
+
+    def __init__(self, water: Water) -> None:
+        self.temperature_c = water.temperature_c
+        self.salinity_psu = water.salinity_psu
+        self.sound_speed = water.sound_speed
+        self.depth = float(water.surface_z)

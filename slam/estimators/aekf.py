@@ -46,6 +46,9 @@ from scipy.linalg import blas as _blas
 from scipy.linalg import lapack as _lapack
 
 from slam.estimators.base import UpdateResult
+from slam.estimators.jcbb import jcbb
+from slam.estimators.rb_model import association_scores, observe
+from slam.estimators.rb_model import wrap as _wrap
 from slam.types import Odometry, RangeBearing
 
 __all__ = [
@@ -64,12 +67,6 @@ __all__ = [
 ]
 
 _TWO_PI = 2.0 * math.pi
-
-
-def _wrap(a):
-    """Wrap angles to [-pi, pi) fast (array or float); the sign at exactly ±pi is irrelevant
-    for innovations."""
-    return np.mod(np.asarray(a) + math.pi, _TWO_PI) - math.pi
 
 
 def _wrap_f(a: float) -> float:
@@ -214,41 +211,6 @@ def compose_odometry(u1, Q1, u2, Q2) -> tuple[np.ndarray, np.ndarray]:
     B = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     Q = A @ Q1 @ A.T + B @ Q2 @ B.T
     return u, 0.5 * (Q + Q.T)
-
-
-def observe(x, idx, *, x_lin=None):
-    """Predicted observations and Jacobians of landmarks ``idx`` (eqs. 5.30, 5.36–5.39).
-
-    Returns ``zhat (k, 2)`` at ``x`` and ``Hv (k, 2, 3)``, ``Hm (k, 2, 2)`` — the non-zero
-    blocks of each row pair of ``H`` (vehicle columns, landmark columns) — at ``x_lin``
-    (default ``x``).
-    """
-    x = np.asarray(x, dtype=float)
-    idx = np.asarray(idx, dtype=np.intp)
-    lm = x[3:].reshape(-1, 2)[idx]
-    d = lm - x[:2]
-    zhat = np.empty((idx.size, 2))
-    zhat[:, 0] = np.hypot(d[:, 0], d[:, 1])
-    zhat[:, 1] = _wrap(np.arctan2(d[:, 1], d[:, 0]) - x[2])
-    if x_lin is not None:
-        x_lin = np.asarray(x_lin, dtype=float)
-        d = x_lin[3:].reshape(-1, 2)[idx] - x_lin[:2]
-    Hv, Hm = _jacobians(d)
-    return zhat, Hv, Hm
-
-
-def _jacobians(d: np.ndarray):
-    q = d[:, 0] ** 2 + d[:, 1] ** 2
-    r = np.sqrt(q)
-    Hm = np.empty((d.shape[0], 2, 2))
-    Hm[:, 0, 0] = d[:, 0] / r
-    Hm[:, 0, 1] = d[:, 1] / r
-    Hm[:, 1, 0] = -d[:, 1] / q
-    Hm[:, 1, 1] = d[:, 0] / q
-    Hv = np.zeros((d.shape[0], 2, 3))
-    Hv[:, :, :2] = -Hm
-    Hv[:, 1, 2] = -1.0
-    return Hv, Hm
 
 
 def _innovation(z, zhat):
@@ -522,41 +484,6 @@ def landmark_marginals(x, P) -> tuple[np.ndarray, np.ndarray]:
     ar = np.arange(n)
     cov = np.asarray(P)[3:, 3:].reshape(n, 2, n, 2)[ar, :, ar, :].copy()
     return np.asarray(x)[3:].reshape(n, 2).copy(), cov
-
-
-def association_scores(x, P, z, R, *, x_lin=None):
-    """Normalized innovation squared and ML distance of every observation to every landmark.
-
-    Returns ``nis (k, n)`` = ``yᵀ S⁻¹ y`` and ``nd (k, n)`` = ``nis + ln det S`` (Bailey's
-    "normalised distance", the negative log-likelihood up to constants), vectorized: S of
-    all landmarks comes from the 5×5 vehicle-landmark blocks of P in one batched product.
-    """
-    x = np.asarray(x, dtype=float)
-    P = np.asarray(P, dtype=float)
-    z = np.asarray(z, dtype=float).reshape(-1, 2)
-    k = z.shape[0]
-    n = (x.size - 3) // 2
-    R = np.asarray(R, dtype=float)
-    if R.shape == (2, 2):
-        R = np.broadcast_to(R, (k, 2, 2))
-    if n == 0 or k == 0:
-        return np.empty((k, n)), np.empty((k, n))
-    ar = np.arange(n)
-    zhat, Hv, Hm = observe(x, ar, x_lin=x_lin)
-    # S_i = Hv Pvv Hvᵀ + Hv Pvi Hmᵀ + (..)ᵀ + Hm Pii Hmᵀ
-    Pvv = P[:3, :3]
-    Pvi = P[:3, 3:].reshape(3, n, 2).transpose(1, 0, 2)  # (n, 3, 2)
-    Pii = P[3:, 3:].reshape(n, 2, n, 2)[ar, :, ar, :]  # (n, 2, 2)
-    HmT = np.swapaxes(Hm, 1, 2)
-    C = Hv @ Pvi @ HmT
-    S0 = Hv @ Pvv @ np.swapaxes(Hv, 1, 2) + C + np.swapaxes(C, 1, 2) + Hm @ Pii @ HmT
-    S = S0[None, :, :, :] + R[:, None, :, :]  # (k, n, 2, 2)
-    y = z[:, None, :] - zhat[None, :, :]
-    y[..., 1] = _wrap(y[..., 1])
-    a, b, d = S[..., 0, 0], 0.5 * (S[..., 0, 1] + S[..., 1, 0]), S[..., 1, 1]
-    det = a * d - b * b
-    nis = (d * y[..., 0] ** 2 - 2.0 * b * y[..., 0] * y[..., 1] + a * y[..., 1] ** 2) / det
-    return nis, nis + np.log(det)
 
 
 def associate(
@@ -881,8 +808,6 @@ class AEKFSlam:
             return UpdateResult(np.zeros(0, np.intp), np.zeros(0, bool), np.zeros(0))
         compatible = None  # landmarks some observation could be (NIS < augment gate)
         if cfg.association == "jcbb":
-            from slam.estimators.jcbb import jcbb
-
             jc = jcbb(self.x, self.P, z, R, confidence=cfg.jcbb_confidence)
             idx = jc.pairs
             scores = jc.nis

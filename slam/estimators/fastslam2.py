@@ -83,6 +83,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from slam.estimators.base import UpdateResult
+from slam.estimators.rb_model import inv2 as _inv2
+from slam.estimators.rb_model import symmetrize as _sym
+from slam.estimators.rb_model import wrap as _wrap
 from slam.estimators.resampling import (
     normalize_log_weights,
     stratified_resample,
@@ -98,11 +101,6 @@ _REJECT = -1
 
 
 # ---------------------------------------------------------------------------- helpers
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """Wrap radians to [-pi, pi) (vectorized; the +pi/-pi boundary is immaterial here)."""
-    return np.mod(a + np.pi, 2.0 * np.pi) - np.pi
-
-
 def validate_covariance(name: str, cov: np.ndarray, *, positive_definite: bool) -> None:
     """Raise ValueError unless ``cov`` is a finite, symmetric, PSD (or PD) matrix."""
     c = np.asarray(cov, dtype=float)
@@ -152,22 +150,6 @@ def observation_model(xv: np.ndarray, m: np.ndarray):
     Hv[..., 0, 2] = 0.0
     Hv[..., 1, 2] = -1.0
     return zhat, Hv, Hf
-
-
-def _inv2(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-form inverse and determinant of symmetric 2x2 matrices (..., 2, 2)."""
-    det = S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] * S[..., 1, 0]
-    det = np.maximum(det, 1e-300)
-    inv = np.empty_like(S)
-    inv[..., 0, 0] = S[..., 1, 1] / det
-    inv[..., 1, 1] = S[..., 0, 0] / det
-    inv[..., 0, 1] = -S[..., 0, 1] / det
-    inv[..., 1, 0] = -S[..., 1, 0] / det
-    return inv, det
-
-
-def _sym(P: np.ndarray) -> np.ndarray:
-    return 0.5 * (P + np.swapaxes(P, -1, -2))
 
 
 def _mm(A: np.ndarray, B: np.ndarray) -> np.ndarray:

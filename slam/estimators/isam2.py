@@ -35,7 +35,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from slam.estimators.base import UpdateResult
-from slam.estimators.fastslam2 import _inv2, _sym, _wrap, observation_model, validate_covariance
+from slam.estimators.fastslam2 import observation_model, validate_covariance
+from slam.estimators.rb_model import inv2, symmetrize, wrap
 from slam.types import Odometry, RangeBearing
 
 __all__ = ["ISAM2SLAM"]
@@ -65,7 +66,7 @@ def _compose_jacobians(phi: float, d: np.ndarray) -> tuple[np.ndarray, np.ndarra
 def _compose(p: np.ndarray, d: np.ndarray) -> np.ndarray:
     c, s = np.cos(p[2]), np.sin(p[2])
     return np.array(
-        [p[0] + d[0] * c - d[1] * s, p[1] + d[0] * s + d[1] * c, float(_wrap(p[2] + d[2]))]
+        [p[0] + d[0] * c - d[1] * s, p[1] + d[0] * s + d[1] * c, float(wrap(p[2] + d[2]))]
     )
 
 
@@ -188,9 +189,9 @@ class ISAM2SLAM:
 
         self._node = 0
         self._pose_est = x0.copy()
-        self._pose_est[2] = _wrap(x0[2])
+        self._pose_est[2] = wrap(x0[2])
         T = self._local_to_world(self._pose_est[2])
-        P0_local = T.T @ _sym(P0) @ T
+        P0_local = T.T @ symmetrize(P0) @ T
         graph = gtsam.NonlinearFactorGraph()
         graph.add(
             gtsam.PriorFactorPose2(
@@ -202,7 +203,7 @@ class ISAM2SLAM:
         values = gtsam.Values()
         values.insert(self._xkey(0), gtsam.Pose2(*self._pose_est))
         self._isam.update(graph, values)
-        self._pose_cov_world = _sym(P0)
+        self._pose_cov_world = symmetrize(P0)
 
         self._pending = np.zeros(3)  # composed increment since the last node (its frame)
         self._pending_cov = np.zeros((3, 3))
@@ -234,11 +235,11 @@ class ISAM2SLAM:
         increments) otherwise gives information 1e8 times larger than elsewhere and iSAM2's
         Cholesky reports an indeterminate system. Measurement covariances are validated
         positive definite and only get the absolute floor."""
-        lam, V = np.linalg.eigh(_sym(np.asarray(cov, dtype=float)))
+        lam, V = np.linalg.eigh(symmetrize(np.asarray(cov, dtype=float)))
         fl = self.min_variance if floor is None else floor
         if relative:
             fl = max(fl, self.relative_floor * lam.max())
-        c = _sym((V * np.maximum(lam, fl)) @ V.T)
+        c = symmetrize((V * np.maximum(lam, fl)) @ V.T)
         return self._g.noiseModel.Gaussian.Covariance(c)
 
     @property
@@ -258,7 +259,7 @@ class ISAM2SLAM:
             )
         validate_covariance("Odometry.cov", odometry.cov, positive_definite=False)
         Gv, Gu = _compose_jacobians(self._pending[2], odometry.delta)
-        self._pending_cov = _sym(Gv @ self._pending_cov @ Gv.T + Gu @ _sym(odometry.cov) @ Gu.T)
+        self._pending_cov = symmetrize(Gv @ self._pending_cov @ Gv.T + Gu @ symmetrize(odometry.cov) @ Gu.T)
         self._pending = _compose(self._pending, odometry.delta)
         self._has_pending = True
         if self.node_every_predict:
@@ -275,7 +276,7 @@ class ISAM2SLAM:
         Gv, Gu = _compose_jacobians(self._pose_est[2], self._pending)
         x = _compose(self._pose_est, self._pending)
         P = Gv @ self._pose_cov_world @ Gv.T + Gu @ self._pending_cov @ Gu.T
-        return x, _sym(P)
+        return x, symmetrize(P)
 
     def _add_node(self, graph, values) -> None:
         g = self._g
@@ -328,7 +329,7 @@ class ISAM2SLAM:
                 f"observations[{labels.index(None)}].label is None"
             )
         Z = np.array([o.z for o in obs])
-        R = np.array([_sym(o.R) for o in obs])
+        R = np.array([symmetrize(o.R) for o in obs])
         xp, Pv = self._predicted_pose()
 
         assoc, new, nis = self._associate(xp, Pv, Z, R, labels)
@@ -385,8 +386,8 @@ class ISAM2SLAM:
             S0 = Hv @ Pv @ np.swapaxes(Hv, -1, -2) + Hf @ self._lm_cov @ np.swapaxes(Hf, -1, -2)
             S = S0[None] + R[:, None]  # (k, n, 2, 2)
             v = Z[:, None] - zhat[None]
-            v[..., 1] = _wrap(v[..., 1])
-            Si, det = _inv2(S)
+            v[..., 1] = wrap(v[..., 1])
+            Si, det = inv2(S)
             d2 = np.einsum("...i,...ij,...j->...", v, Si, v)
             # Candidates (loose gate on the approximate NIS): exact S from the joint marginal
             # of the pose and the landmark, cross-covariance included.
@@ -395,7 +396,7 @@ class ISAM2SLAM:
                 if cand.size:
                     S_c = self._joint_innovation_cov(cand, Hv[cand], Hf[cand], Pv)
                     S[:, cand] = S_c[None] + R[:, None]
-                    Si, det = _inv2(S)
+                    Si, det = inv2(S)
                     d2 = np.einsum("...i,...ij,...j->...", v, Si, v)
             ll = -0.5 * d2 - 0.5 * np.log(det) - _LOG_2PI
         else:
@@ -448,10 +449,10 @@ class ISAM2SLAM:
             G = Gv @ T
         Pxl = np.array([G @ jm.at(xk, lk) for lk in lks])  # (c, 3, 2) world frame
         Pll = np.array([jm.at(lk, lk) for lk in lks])  # (c, 2, 2)
-        self._lm_cov[cand] = _sym(Pll)  # fresh marginals for the cache as a side effect
+        self._lm_cov[cand] = symmetrize(Pll)  # fresh marginals for the cache as a side effect
         HvT, HfT = np.swapaxes(Hv, -1, -2), np.swapaxes(Hf, -1, -2)
         cross = Hv @ Pxl @ HfT
-        return _sym(Hv @ Pv @ HvT + Hf @ Pll @ HfT + cross + np.swapaxes(cross, -1, -2))
+        return symmetrize(Hv @ Pv @ HvT + Hf @ Pll @ HfT + cross + np.swapaxes(cross, -1, -2))
 
     def _refresh(self, observed) -> None:
         """Pull the estimate and the marginals needed by the next association from iSAM2."""
@@ -459,7 +460,7 @@ class ISAM2SLAM:
         p = isam.calculateEstimatePose2(self._xkey(self._node))
         self._pose_est = np.array([p.x(), p.y(), p.theta()])
         T = self._local_to_world(self._pose_est[2])
-        self._pose_cov_world = _sym(T @ self._isam.marginalCovariance(self._xkey(self._node)) @ T.T)
+        self._pose_cov_world = symmetrize(T @ self._isam.marginalCovariance(self._xkey(self._node)) @ T.T)
         if self.n_landmarks:
             # per-key estimates: O(n landmarks), not O(n poses) like calculateEstimate()
             self._lm_mean = np.array(

@@ -26,7 +26,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.stats import chi2
 
-from slam.estimators.aekf import association_scores, observe
+from slam.estimators.rb_model import association_scores, observe
 
 __all__ = ["JCBBResult", "jcbb"]
 

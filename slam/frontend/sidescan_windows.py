@@ -26,7 +26,8 @@ observation. A view-dependent term is added to that covariance: a side-scan high
 is the sonar-facing part of an object, so its centroid moves across the object between
 passes from opposite sides; ``view_bias`` x the region's across-track extent (range) and
 along-track extent (as a bearing) are added as standard deviations (0.5: half the
-extent), so re-observations from the other side still pass the association gates. The runner feeds it to SLAM at the pose of t_k (sim.runner.lagged).
+extent), so re-observations from the other side still pass the association gates. slam.pipeline feeds it to SLAM at the pose of t_k
+(slam.pipeline.lagged).
 
 Scoring uses the simulator's per-sample labels: a detection is a true positive when at
 least ``tp_fraction`` of its region's pixels carry an object id > 0.
@@ -39,27 +40,32 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from slam.frontend.observation import SideScanGeometry, range_bearing_from_pixels
 from slam.types import RangeBearing
 
 
 @dataclass(frozen=True)
 class PingRecord:
-    """What the runner keeps per side-scan ping.
+    """One side-scan ping as the windowing keeps it.
 
-    t: acquisition time, s. intensity (2S,) float32 linear, port left (far range first).
-    labels (2S,) int32 object id per sample (0 seabed, -1 no return, k >= 1 object k).
+    t: acquisition time, s. intensity (2S,) float32, port left (far range first).
     slant_range (S,) m of the starboard half's samples (near to far; port mirrored).
-    altitude: measured altitude (DVL), m. pose_true (3,) [x, y, yaw] for scoring only.
-    speed: along-track speed estimate, m/s (for the along-track pixel size).
+    altitude: measured altitude (DVL or first return), m. speed: along-track speed
+    estimate, m/s (for the along-track pixel size).
+    Ground truth, optional (scoring only; a recording has none): labels (2S,) int32
+    object id per sample (0 seabed, -1 no return, k >= 1 object k); pose_true (3,)
+    [x, y, yaw]. Without them detections carry object id 0, are not true positives and
+    are placed with ``pose_nav`` (the navigation pose, when given).
     """
 
     t: float
     intensity: np.ndarray
-    labels: np.ndarray
     slant_range: np.ndarray
     altitude: float
-    pose_true: np.ndarray
     speed: float = 1.5
+    labels: np.ndarray | None = None
+    pose_true: np.ndarray | None = None
+    pose_nav: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -75,7 +81,7 @@ class Detection:
     observation: RangeBearing
     object_id: int  # majority simulator label of the region (0 = none) - scoring only
     true_positive: bool
-    world_xy_true_pose: np.ndarray  # the detection placed with the true pose (scoring only)
+    world_xy_true_pose: np.ndarray  # placed with the true pose (else the nav pose, else NaN)
 
 
 @dataclass
@@ -155,7 +161,9 @@ class SidescanProcessor:
         W, H = self.window, self.hop
         pings = self.pings[a : a + W]
         img = np.stack([p.intensity for p in pings]).astype(np.float32)
-        lab = np.stack([p.labels for p in pings]).astype(np.int32)
+        lab = np.stack(
+            [p.labels if p.labels is not None else np.zeros(img.shape[1], np.int32) for p in pings]
+        ).astype(np.int32)
         if self.prepare is not None:
             img = self.prepare(img, np.array([p.altitude for p in pings]), pings[0].slant_range)
         own_lo = self._owned_until
@@ -178,13 +186,74 @@ class SidescanProcessor:
     def _detections(
         self, a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay
     ) -> list[Detection]:
-        from slam.frontend.observation import SideScanGeometry, range_bearing_from_pixels
-
         S = img.shape[1] // 2
+        rate = self._ping_rate()
+        cand = self._candidates(a, S, lab, seg_labels, regions, own_lo, own_hi, overlay, rate)
+        # merge regions of one object (single linkage): same side, gap between their
+        # footprints (along-track x ground range, metres) below merge_radius
+        groups = self._merge(cand, rate)
+        out = []
+        for grp in groups:
+            w = np.array([g_[4] for g_ in grp], float)
+            row = float(np.average([g_[0] for g_ in grp], weights=w))
+            col = float(np.average([g_[1] for g_ in grp], weights=w))
+            k = round(row)
+            port = grp[0][2]
+            bb = np.array([g_[5] for g_ in grp])
+            ext = (float(bb[:, 2].max() - bb[:, 0].min()), float(bb[:, 3].max() - bb[:, 1].min()))
+            big = max(grp, key=lambda x: x[4])
+            oid, frac = big[6], float(np.average([g_[7] for g_ in grp], weights=w))
+            p = self.pings[k]
+            bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
+            geom = SideScanGeometry(
+                slant_range_max=float(p.slant_range[-1] + bin_w / 2),
+                samples_per_side=S,
+                altitude=max(float(p.altitude), 0.0),
+                along_track_spacing=max(p.speed, 0.05) / rate,
+                slant_range_min=max(float(p.slant_range[0] - bin_w / 2), 0.0),
+                along_track_beamwidth_deg=self.along_track_beamwidth_deg,
+                altitude_sigma=self.altitude_sigma,
+            )
+            try:
+                rng_, brg, cov = range_bearing_from_pixels(
+                    geom, np.array([[row - a, col]]), np.array([ext]), ref_row=float(k - a)
+                )
+            except ValueError:  # centroid in the water column (no ground range): no observation
+                continue
+            R = cov[0].copy()
+            if self.view_bias > 0:  # the highlight's place on the object depends on the view
+                R[0, 0] += (self.view_bias * ext[1] * bin_w) ** 2
+                R[1, 1] += (
+                    self.view_bias * ext[0] * geom.along_track_spacing / max(rng_[0], 1.0)
+                ) ** 2
+            obs = RangeBearing([rng_[0], brg[0]], R, t=p.t, meta={"object_id": oid, "ping": k})
+            x, y, yaw = _placing_pose(p)
+            wxy = np.array([x + rng_[0] * np.cos(yaw + brg[0]), y + rng_[0] * np.sin(yaw + brg[0])])
+            slant = float(np.hypot(rng_[0], p.altitude))
+            out.append(
+                Detection(
+                    p.t,
+                    k,
+                    "port" if port else "starboard",
+                    slant,
+                    float(rng_[0]),
+                    int(w.sum()),
+                    obs,
+                    oid,
+                    frac >= self.tp_fraction,
+                    wxy,
+                )
+            )
+        out.sort(key=lambda d: (d.t, d.side, d.ground_range))
+        return out
+
+    def _candidates(self, a, S, lab, seg_labels, regions, own_lo, own_hi, overlay, rate):
+        """Regions of the owned rows that may be detections: size, ground-area and nadir
+        tests; per region [row, col, port, ground range, area, bbox, object id, object
+        fraction, (near, far) ground range]. Marks each in the overlay."""
         flat_seg = seg_labels.ravel()
         order = np.argsort(flat_seg, kind="stable")
         bounds = np.searchsorted(flat_seg[order], np.arange(int(flat_seg.max(initial=0)) + 2))
-        rate = self._ping_rate()
         cand = []
         for reg in regions:
             if reg.area_px < self.min_area_px:
@@ -229,63 +298,7 @@ class SidescanProcessor:
                     (gi[0], gi[1]),
                 ]
             )
-        # merge regions of one object (single linkage): same side, gap between their
-        # footprints (along-track x ground range, metres) below merge_radius
-        groups = self._merge(cand, rate)
-        out = []
-        for grp in groups:
-            w = np.array([g_[4] for g_ in grp], float)
-            row = float(np.average([g_[0] for g_ in grp], weights=w))
-            col = float(np.average([g_[1] for g_ in grp], weights=w))
-            k = round(row)
-            port = grp[0][2]
-            bb = np.array([g_[5] for g_ in grp])
-            ext = (float(bb[:, 2].max() - bb[:, 0].min()), float(bb[:, 3].max() - bb[:, 1].min()))
-            big = max(grp, key=lambda x: x[4])
-            oid, frac = big[6], float(np.average([g_[7] for g_ in grp], weights=w))
-            p = self.pings[k]
-            bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
-            geom = SideScanGeometry(
-                slant_range_max=float(p.slant_range[-1] + bin_w / 2),
-                samples_per_side=S,
-                altitude=max(float(p.altitude), 0.0),
-                along_track_spacing=max(p.speed, 0.05) / rate,
-                slant_range_min=max(float(p.slant_range[0] - bin_w / 2), 0.0),
-                along_track_beamwidth_deg=self.along_track_beamwidth_deg,
-                altitude_sigma=self.altitude_sigma,
-            )
-            try:
-                rng_, brg, cov = range_bearing_from_pixels(
-                    geom, np.array([[row - a, col]]), np.array([ext]), ref_row=float(k - a)
-                )
-            except ValueError:  # centroid in the water column (no ground range): no observation
-                continue
-            R = cov[0].copy()
-            if self.view_bias > 0:  # the highlight's place on the object depends on the view
-                R[0, 0] += (self.view_bias * ext[1] * bin_w) ** 2
-                R[1, 1] += (
-                    self.view_bias * ext[0] * geom.along_track_spacing / max(rng_[0], 1.0)
-                ) ** 2
-            obs = RangeBearing([rng_[0], brg[0]], R, t=p.t, meta={"object_id": oid, "ping": k})
-            x, y, yaw = p.pose_true
-            wxy = np.array([x + rng_[0] * np.cos(yaw + brg[0]), y + rng_[0] * np.sin(yaw + brg[0])])
-            slant = float(np.hypot(rng_[0], p.altitude))
-            out.append(
-                Detection(
-                    p.t,
-                    k,
-                    "port" if port else "starboard",
-                    slant,
-                    float(rng_[0]),
-                    int(w.sum()),
-                    obs,
-                    oid,
-                    frac >= self.tp_fraction,
-                    wxy,
-                )
-            )
-        out.sort(key=lambda d: (d.t, d.side, d.ground_range))
-        return out
+        return cand
 
     def _merge(self, cand: list, rate: float) -> list[list]:
         n = len(cand)
@@ -318,6 +331,15 @@ class SidescanProcessor:
             return 10.0
         dt = (self.pings[-1].t - self.pings[0].t) / (n - 1)
         return 1.0 / dt if dt > 0 else 10.0
+
+
+def _placing_pose(p: PingRecord) -> np.ndarray:
+    """The pose a detection is placed with: true (scoring), else navigation, else NaN."""
+    if p.pose_true is not None:
+        return np.asarray(p.pose_true, float)
+    if p.pose_nav is not None:
+        return np.asarray(p.pose_nav, float)
+    return np.full(3, np.nan)
 
 
 def no_return_mask(img: np.ndarray) -> np.ndarray:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from hypothesis import strategies as st
 
 from sim.cli.main import main
 from slam.io.waterfall import Waterfall
+from slam.pipeline import REAL_SIDESCAN
 from slam.sidescan_slam import (
     EARTH_RADIUS_M,
     SidescanSlamConfig,
@@ -73,12 +75,16 @@ def test_one_target_becomes_one_landmark_at_its_place():
 
 def test_mira_option_runs_and_bad_config_names_the_field():
     wf = synthetic_recording(np.random.default_rng(4), pings=220)
-    res = run_sidescan_slam(wf, SidescanSlamConfig(normalization="mira"))
+    res = run_sidescan_slam(
+        wf, SidescanSlamConfig(pipeline=replace(REAL_SIDESCAN, normalization="mira"))
+    )
     assert res.n_windows >= 1
     with pytest.raises(ValueError, match="normalization"):
-        SidescanSlamConfig(normalization="gamma")
+        replace(REAL_SIDESCAN, normalization="gamma")
     with pytest.raises(ValueError, match="hop_pings"):
-        SidescanSlamConfig(window_pings=10, hop_pings=20)
+        replace(REAL_SIDESCAN, window_pings=10, hop_pings=20)
+    with pytest.raises(ValueError, match="altitude"):
+        SidescanSlamConfig(altitude="sonar")
     nav = dict(wf.nav)
     nav.pop("heading_deg")
     with pytest.raises(ValueError, match="heading_deg"):

@@ -160,7 +160,6 @@ def test_speed_property_valid_or_named_error(value):
 
 def test_sonar_override_checked_against_sonar_config(base):
     """An override that is not a field of the sonar preset names the field path."""
-    pytest.importorskip("sim.sonar.config")
     base["vehicles"][0]["sonars"][0]["overrides"] = {"max_rnge": 30.0}
     msg = _err(base)
     assert "vehicles[0].sonars[0].overrides" in msg and "max_rnge" in msg
@@ -168,7 +167,6 @@ def test_sonar_override_checked_against_sonar_config(base):
 
 def test_nav_sensor_preset_and_override_checked(base):
     """Nav presets/overrides are checked against sim.navigation's configs."""
-    pytest.importorskip("sim.navigation")
     base["vehicles"][0]["nav"] = {"dvl": {"preset": "rdi999"}}
     msg = _err(base)
     assert "vehicles[0].nav.dvl" in msg and "rdi600" in msg

@@ -13,11 +13,18 @@ Bounds and why:
   Table 6.1: 7.5 m and 10.0 m errors for landmarks A and B).
 """
 
+import importlib.util
+
 import numpy as np
 import pytest
 
 from slam.estimators.fastslam2 import FastSLAM2
+from slam.estimators.isam2 import ISAM2SLAM
+from slam.experiments import runner
+from slam.sim2d import Sim2DConfig, dense_loop_map, simulate_run
 from slam.types import Odometry, RangeBearing, wrap_angle
+
+HAVE_GTSAM = importlib.util.find_spec("gtsam") is not None
 
 CHI2_2DOF_99 = 9.21
 
@@ -97,12 +104,8 @@ def _estimators(seed):
         ("fastslam2-known", FastSLAM2(rng=np.random.default_rng(seed), association="known")),
         ("fastslam2-ml", FastSLAM2(rng=np.random.default_rng(seed))),
     ]
-    try:
-        from slam.estimators.isam2 import ISAM2SLAM
-
+    if HAVE_GTSAM:  # the optional baselines extra
         ests.append(("isam2-ml", ISAM2SLAM()))
-    except ImportError:  # pragma: no cover - gtsam is the optional baselines extra
-        pass
     return ests
 
 
@@ -128,12 +131,6 @@ def test_circle_loop_both_estimators_map_better_than_dead_reckoning(seed):
 
 
 def _dense_loop_run(n_loops: int, seed: int):
-    sim2d = pytest.importorskip("slam.sim2d", reason="needs the 2-D simulator")
-    try:
-        from slam.sim2d import Sim2DConfig, dense_loop_map, simulate_run
-    except ImportError as exc:  # pragma: no cover
-        pytest.skip(f"slam.sim2d incomplete: {exc}")
-    del sim2d
     try:
         m = dense_loop_map()
     except (FileNotFoundError, OSError) as exc:  # pragma: no cover - map file missing
@@ -182,8 +179,8 @@ def test_dense_loop_first_loop_fastslam2_and_isam2_run_the_same_data():
     w = fs.weights
     assert np.all(np.isfinite(w)) and w.sum() == pytest.approx(1.0)
 
-    isam2 = pytest.importorskip("slam.estimators.isam2")
-    est = _drive(isam2.ISAM2SLAM(), run)
+    pytest.importorskip("gtsam", reason="iSAM2 needs the undersea[baselines] extra")
+    est = _drive(ISAM2SLAM(), run)
     M, C = est.landmarks()
     assert 0.9 * seen.size <= M.shape[0] <= seen.size
     # consistency: each estimate against its nearest true landmark
@@ -206,7 +203,7 @@ def test_dense_loop_two_loops_five_seeds():
     * FastSLAM 2.0 (100 particles): median RMSE below the median dead-reckoning map RMSE
       (single runs can be worse: particle depletion makes it inconsistent, and its run-to-run
       spread is large, 2-14 m over the runner's seeds 0-11); valid weights in every run."""
-    isam2 = pytest.importorskip("slam.estimators.isam2")
+    pytest.importorskip("gtsam", reason="iSAM2 needs the undersea[baselines] extra")
     fs_rmse, is_rmse, dr_rmse = [], [], []
     for seed in range(5):
         run = _dense_loop_run(2, seed)
@@ -217,7 +214,7 @@ def test_dense_loop_two_loops_five_seeds():
         M, _ = fs.landmarks()
         fs_rmse.append(np.sqrt(np.mean(np.sum((M - run.landmarks[fs.labels]) ** 2, axis=1))))
         assert np.all(np.isfinite(fs.weights))
-        est = _drive(isam2.ISAM2SLAM(), run)
+        est = _drive(ISAM2SLAM(), run)
         M, C = est.landmarks()
         assert seen.size - 1 <= M.shape[0] <= seen.size + 1
         err, _ = nearest_errors(M, run.landmarks[seen])
@@ -255,7 +252,6 @@ def test_circle_ml_loop_closure_allowance_reassociates_where_plain_gating_duplic
 
 
 def _runner_rmse(seeds, params):
-    runner = pytest.importorskip("slam.experiments.runner")
     spec = runner.get_experiment("dense-loop", dt=0.025)
     out = []
     for seed in seeds:

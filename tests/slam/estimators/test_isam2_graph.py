@@ -14,6 +14,7 @@ from slam_reference_models import motion as _motion
 from slam_reference_models import num_jac as _num_jac
 from slam_reference_models import range_bearing as _h
 
+from slam import sim2d
 from slam.estimators.base import SlamEstimator
 from slam.estimators.isam2 import ISAM2SLAM
 from slam.types import Odometry, RangeBearing, wrap_angle
@@ -217,7 +218,6 @@ def test_line_map_large_drift_stays_solvable():
     pose uncertainty reaches 25 m against the 0.1 mm prior anchor, and iSAM2 with Cholesky
     reported an indeterminate system at scan 949. With the QR default the full pass runs
     and every seen landmark is mapped once (known association)."""
-    sim2d = pytest.importorskip("slam.sim2d")
     spec_map = sim2d.line_map()
     ss = np.random.SeedSequence(0)
     run = sim2d.simulate_run(

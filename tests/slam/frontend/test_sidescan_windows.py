@@ -40,7 +40,13 @@ def _pings(n, S, obj_pings, obj_sample, h=8.0, dt=0.1, speed=1.5):
             labels[S + obj_sample - 1 : S + obj_sample + 2] = 7
         out.append(
             PingRecord(
-                k * dt, inten, labels, ranges, h, np.array([k * dt * speed, 0.0, 0.0]), speed
+                k * dt,
+                inten,
+                ranges,
+                h,
+                speed,
+                labels=labels,
+                pose_true=np.array([k * dt * speed, 0.0, 0.0]),
             )
         )
     return out, ranges

@@ -98,7 +98,7 @@ def test_object_free_seabed_with_dead_far_range_gives_no_detection(seed):
     for k in range(img.shape[0]):
         lab = np.zeros(2 * s, np.int32)
         pose = np.array([0.1 * k, 0.0, 0.0])
-        res = proc.add(PingRecord(k / 10.0, img[k], lab, slant, alt, pose, 1.0))
+        res = proc.add(PingRecord(k / 10.0, img[k], slant, alt, 1.0, labels=lab, pose_true=pose))
         if res is not None:
             dets += res.detections
     assert dets == []

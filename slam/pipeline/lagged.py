@@ -15,8 +15,9 @@ is then the lagged estimate composed with the queued odometry (dead reckoning),
 :meth:`LaggedSlam.current_pose`.
 
 Consecutive odometry increments with no observation between them are composed into one
-predict step (exact composition of the increments and first-order propagation of their
-covariances: the same result a chain of predicts gives for the pose, fewer calls).
+predict step (slam.estimators.aekf.compose_odometry: exact composition of the increments
+and first-order propagation of their covariances, the same result a chain of predicts
+gives, fewer calls). ``record_dt = 0`` predicts and records at every odometry cut.
 
 The naive alternative (``timing = "naive"`` in a scenario) applies detections at the
 time they are produced, as if seen from the current pose; kept for comparison.
@@ -30,22 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from slam.estimators.aekf import compose_odometry
 from slam.types import Odometry, RangeBearing, wrap_angle
-
-
-def compose_increments(d1: np.ndarray, C1: np.ndarray, d2: np.ndarray, C2: np.ndarray):
-    """Compose two body-frame increments ``[dx, dy, dphi]`` (second after first) with
-    first-order covariance ``J1 C1 J1ᵀ + J2 C2 J2ᵀ`` (independent increments)."""
-    c, s = np.cos(d1[2]), np.sin(d1[2])
-    d = np.array(
-        [d1[0] + c * d2[0] - s * d2[1], d1[1] + s * d2[0] + c * d2[1], wrap_angle(d1[2] + d2[2])]
-    )
-    J1 = np.array(
-        [[1.0, 0.0, -s * d2[0] - c * d2[1]], [0.0, 1.0, c * d2[0] - s * d2[1]], [0.0, 0.0, 1.0]]
-    )
-    J2 = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    C = J1 @ C1 @ J1.T + J2 @ C2 @ J2.T
-    return d, 0.5 * (C + C.T)
 
 
 def apply_increment(pose: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -69,13 +56,17 @@ class LaggedSlam:
     """Feeds one estimator in timestamp order up to a released horizon.
 
     on_update(t, observations, result) is called after each update (for logging/metrics).
+    record_dt: s, the pose history gets a node at least this often (0: at every odometry
+    cut, each increment its own predict).
     """
 
     def __init__(
         self, estimator, t0: float = 0.0, on_update: Callable | None = None, record_dt: float = 1.0
     ) -> None:
         self.estimator = estimator
-        self.record_dt = float(record_dt)  # the pose history gets a node at least this often
+        if not record_dt >= 0:
+            raise ValueError(f"record_dt = {record_dt!r}: must be >= 0")
+        self.record_dt = float(record_dt)
         self._next_record = float(t0) + self.record_dt
         self.t_done = float(t0)  # everything up to here has been fed
         self._odo: list[Odometry] = []  # contiguous increments after t_done, time ordered
@@ -110,7 +101,7 @@ class LaggedSlam:
         n = 0
         while self._odo and self._odo[0].t <= t + 1e-9:
             o = self._odo.pop(0)
-            d, C = compose_increments(d, C, o.delta, o.cov)
+            d, C = compose_odometry(d, C, o.delta, o.cov)
             n += 1
             self.t_done = o.t
             if self.t_done >= self._next_record - 1e-9 and (
@@ -141,8 +132,11 @@ class LaggedSlam:
             self._record()
 
     def _record(self) -> None:
-        while self._next_record <= self.t_done + 1e-9:
-            self._next_record += self.record_dt
+        if self.record_dt > 0:
+            while self._next_record <= self.t_done + 1e-9:
+                self._next_record += self.record_dt
+        else:
+            self._next_record = self.t_done
         x, P = self.estimator.pose()
         self.history.append(PoseRecord(self.t_done, np.array(x, float), np.array(P, float)))
 

@@ -1,76 +1,41 @@
-"""FLS and MSIS frames -> detections -> SLAM observations (the runner's polar front end).
+"""FLS and MSIS frames -> detections -> SLAM observations (the polar front end).
 
 A forward-looking sonar frame is a polar image (range bins x beams, one pose); an MSIS
 scan is a polar image (head angles x range bins) whose rows are pings at their own poses.
 Both go through the same chain, :class:`PolarFrontend`:
 
 1. **Conditioning** (:func:`condition_polar`): linear intensity; each cell divided by the
-   median of its ``background_window`` neighbourhood (the local seabed level changes with
-   range and grazing angle across the image); cells without a return set to that level;
-   ``looks`` x ``looks`` incoherent averaging against speckle; then dB above the
-   background mapped with a **fixed** scale [0, ``top_db``] dB -> [0, 255] to 8 bits.
-   The fixed scale is the point: the segmentation's own min-max stretch made every frame,
-   even bare seabed, span the full grey range, and the Otsu threshold then split the
-   no-return area from the seabed (one region of ~14 000 px, removed by the area filter)
-   instead of objects from seabed. Measured on the 300 frames of a 60 s ``harbour-fls``
-   run: the previous conditioning + ``fls`` preset gave 8 detections in 300 frames.
-   Averaging consecutive frames (2-3 "looks" over time) was measured too and not kept:
-   on ``harbour-fls`` it raised the false regions (the vehicle moves 0.1 m and turns
-   between frames, which smears highlights into the seabed) for no gain in true ones.
-2. **Segmentation**: slam.frontend.segmentation (improved Otsu by default) with the
-   size rule for the actual image (preset ``"auto"``): the reference's ``fls`` preset
-   (a = 40 px) is for its 1920 x 932 images and removes a tyre (20-30 px in a 256 x 128
-   frame) in step 1 of Algorithm 2.
+   median of its ``background_window`` neighbourhood (the seabed level changes with range
+   and grazing angle); cells without a return set to that level; ``looks`` x ``looks``
+   incoherent averaging against speckle; dB above the background mapped with a **fixed**
+   scale [0, ``top_db``] dB -> [0, 255] to 8 bits, so bare seabed does not span the full
+   grey range and the threshold separates objects from seabed.
+2. **Segmentation**: slam.frontend.segmentation (improved Otsu by default) with the size
+   rule for the actual image (preset ``"auto"``).
 3. **Region filter**: area in [``min_area_px``, ``max_area_fraction`` x image] and a
-   contrast test, the region's peak at least ``min_peak_db`` above the local background
-   (a CFAR-style test on the conditioned image; on 25-look averaged speckle the
-   background's 99th percentile was 3.5 dB and its maximum 5-6 dB in the measured runs,
-   objects peak at 9-18 dB). Regions touching a truncating image edge (FLS: first / last
-   beam and the far range bin; MSIS: the far range bin) are dropped: their centroid is
-   not the object's.
-4. **Extended objects**: regions of one frame whose footprints (centroid +- half
-   their extent along the joining line) lie closer than ``merge_radius_m`` (single
-   linkage, :func:`footprint_gap_groups`) are one object (a wreck or a pipe broken into
-   highlights). Each object's position is the centroid of its cells in metres (body
-   frame, horizontal ranges), and its covariance is the cell covariance (range bin,
-   max(beam width, angular step), each uniform) plus the second-moment matrix of its
-   cells, plus two view terms, because a sonar lights only part of an extended object
-   and the landmark is the object's centre:
-
-   * along the region's major axis, (``extent_bias`` x the object's lit length)²: the
-     lit part of a 20 m wreck, or of a 10 m pipe seen end-on, is a few metres at one
-     end (measured: errors of 3.5-4.5 m along the object's axis with a region sigma of
-     ~1 m). ``extent_bias`` = 2 puts the centre anywhere within ±3.5 lit lengths,
-     i.e. the lit part is at least ~1/7 of the object;
-   * along the line of sight, (``shadow_bias`` x the lit width across it)²: only the
-     sonar-facing side is lit, the centre lies behind it (0.5, as the side-scan path's
-     ``view_bias``).
-
-   Lit lengths are the region's (sqrt(12 variance), a uniform bar) less the width a
-   point target's region gets from the chain (blur, dilation, beam width), so compact
-   objects (a tyre) keep a covariance near their cell size. Chosen on the two scenarios
-   it is measured on (60 s runs, no held-out scenario): with ``extent_bias`` 0, 1, 2 the
-   landmark NEES of the wreck seen by SAGA's FLS in swarms-mapping was 26.5, 12.3, 4.8;
-   the tyre in harbour-fls is unaffected (NEES 0.1-1.2); no objects merged. The
-   position error itself stays (4-5 m for the wreck): a point landmark at the centre of
-   a partly seen 20 m object is not better observable from one side.
-   Computed for all regions at once with ``numpy.bincount`` / batched ``eigh``.
-5. **Persistence** (:class:`PersistenceFilter`): a detection becomes a confirmed
-   detection only if candidates were found within ``persistence_radius_m`` (world
-   frame, placed with the vehicle's *navigation* pose - dead reckoning, never the true
-   pose) in at least ``persistence_k`` of the last ``persistence_n`` frames including
-   this one. Speckle does not recur at a fixed world position; objects do.
-6. **Keyframing**: consecutive FLS frames of one object share their systematic error
-   (which part of an extended object is lit, layover of its height), so feeding every
-   frame to the filter as independent shrinks the landmark covariance well below the
-   real error (landmark NEES 62 on harbour-fls). A confirmed detection becomes a SLAM
-   observation only when its track is new or the vehicle has moved ``keyframe_distance_m``
-   or turned ``keyframe_angle_deg`` since that track's last observation (MSIS: scans are
-   metres apart, every confirmed detection is used).
+   contrast test (peak at least ``min_peak_db`` above the local background, CFAR-style);
+   regions touching a truncating image edge are dropped (their centroid is not the
+   object's).
+4. **Extended objects**: regions of one frame whose footprints lie closer than
+   ``merge_radius_m`` (single linkage, :func:`footprint_gap_groups`) are one object. Its
+   position is the centroid of its cells in metres (body frame, horizontal ranges); its
+   covariance is the cell covariance plus the cells' second-moment matrix plus two view
+   terms (``extent_bias`` along the major axis, ``shadow_bias`` along the line of
+   sight), because a sonar lights only part of an extended object and the landmark is
+   its centre. Computed for all regions at once (``numpy.bincount``, batched ``eigh``).
+5. **Persistence** (:class:`PersistenceFilter`): a candidate is confirmed when candidates
+   lie within ``persistence_radius_m`` (world frame, placed with the *navigation* pose,
+   never the true pose) in at least ``persistence_k`` of the last ``persistence_n``
+   frames.
+6. **Keyframing**: a confirmed detection becomes a SLAM observation only when its track is
+   new or the vehicle has moved ``keyframe_distance_m`` / turned ``keyframe_angle_deg``
+   since that track's last observation (consecutive frames of one object share their
+   systematic error).
 
 Observation timing: an FLS observation belongs to its frame's time; an MSIS observation
-to the ping of its centroid row (as before). Persistence uses only past frames, so
-nothing is delayed (the lagged SLAM feeder is not held back by FLS / MSIS).
+to the ping of its centroid row. Persistence uses only past frames, so nothing is
+delayed. Why each parameter has its value (measured on the built-in scenarios):
+docs/polar-frontend.md.
 
 Hand-written here: the chain's glue, the moment-based covariance and the persistence
 filter (no library provides a k-of-n confirmation on world positions); thresholding,
@@ -79,13 +44,20 @@ morphology and region labelling are scikit-image / OpenCV / scipy via the front 
 
 from __future__ import annotations
 
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
-from slam.types import RangeBearing, wrap_angle
+from slam.frontend.polar_parts import (
+    PersistenceFilter,
+    condition_polar,
+    footprint_gap_groups,
+    region_moments,
+    xy_to_range_bearing,
+)
+from slam.types import RangeBearing
 
 
 @dataclass(frozen=True)
@@ -187,176 +159,6 @@ MSIS_FRONTEND = PolarFrontendConfig(
     keyframe_distance_m=0.0,
     keyframe_angle_deg=0.0,
 )
-
-
-def condition_polar(
-    image: np.ndarray, *, log_compressed: bool, dynamic_range_db: float, cfg: PolarFrontendConfig
-) -> tuple[np.ndarray, np.ndarray]:
-    """Step 1: a sonar's display image (values in [0, 1] spanning ``dynamic_range_db`` when
-    ``log_compressed``, else linear intensity) -> (uint8 image on the fixed scale
-    [0, top_db] dB above background, float32 dB above background clipped at 0)."""
-    import cv2
-    from scipy import ndimage
-
-    x = np.asarray(image, dtype=np.float64)
-    if x.ndim != 2 or x.size == 0:
-        raise ValueError(f"image must be a non-empty 2-D array, got shape {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("image has NaN or infinite values")
-    lin = np.power(10.0, x * (dynamic_range_db / 10.0)) if log_compressed else x
-    valid = x > (cfg.floor if log_compressed else cfg.floor * max(float(x.max()), 1e-30))
-    if not valid.any():
-        z = np.zeros(x.shape, np.float32)
-        return z.astype(np.uint8), z
-    fill = float(np.median(lin[valid]))
-    bg = ndimage.median_filter(np.where(valid, lin, fill), size=cfg.background_window)
-    m = np.where(valid, lin / np.maximum(bg, 1e-30), 1.0).astype(np.float32)
-    if cfg.looks > 1:
-        m = cv2.blur(m, (cfg.looks, cfg.looks))
-    db = (10.0 * np.log10(np.clip(m, 1.0, 10.0 ** (cfg.top_db / 10.0)))).astype(np.float32)
-    g8 = np.round(db * (255.0 / cfg.top_db)).astype(np.uint8)
-    return g8, db
-
-
-def region_moments(
-    labels: np.ndarray, n: int, x: np.ndarray, y: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Centroid (n, 2) m, second-moment matrix (n, 2, 2) m² and cell count (n,) of the
-    cells of labels 1..n, with per-cell metric coordinates ``x``, ``y`` (same shape as
-    ``labels``). Vectorized (numpy.bincount); a label without cells gets count 0 and
-    NaN moments."""
-    lab = labels.ravel()
-    xs, ys = x.ravel(), y.ravel()
-    cnt = np.bincount(lab, minlength=n + 1)[1 : n + 1].astype(float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sx = np.bincount(lab, xs, n + 1)[1:] / cnt
-        sy = np.bincount(lab, ys, n + 1)[1:] / cnt
-        sxx = np.bincount(lab, xs * xs, n + 1)[1:] / cnt - sx**2
-        syy = np.bincount(lab, ys * ys, n + 1)[1:] / cnt - sy**2
-        sxy = np.bincount(lab, xs * ys, n + 1)[1:] / cnt - sx * sy
-    C = np.empty((n, 2, 2))
-    C[:, 0, 0] = np.maximum(sxx, 0.0)
-    C[:, 1, 1] = np.maximum(syy, 0.0)
-    C[:, 0, 1] = C[:, 1, 0] = sxy
-    return np.column_stack([sx, sy]), C, cnt
-
-
-def xy_to_range_bearing(
-    xy: np.ndarray, C_xy: np.ndarray, var_range: np.ndarray, var_bearing: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Body (x, y) (n, 2) with covariance (n, 2, 2) -> range (n,), bearing (n,) and the
-    covariance J C Jᵀ + diag(var_range, var_bearing) (first order; the cell terms are
-    native polar variances)."""
-    x, y = xy[:, 0], xy[:, 1]
-    rho = np.hypot(x, y)
-    if np.any(rho <= 0):
-        raise ValueError("detection at the sonar origin (range 0): bearing undefined")
-    J = np.zeros((len(x), 2, 2))
-    J[:, 0, 0], J[:, 0, 1] = x / rho, y / rho
-    J[:, 1, 0], J[:, 1, 1] = -y / rho**2, x / rho**2
-    R = J @ C_xy @ np.swapaxes(J, -1, -2)
-    R[:, 0, 0] += var_range
-    R[:, 1, 1] += var_bearing
-    return rho, np.arctan2(y, x), 0.5 * (R + np.swapaxes(R, -1, -2))
-
-
-def footprint_gap_groups(xy: np.ndarray, M: np.ndarray, radius: float) -> np.ndarray:
-    """Group index (n,) of regions joined by chains of footprint gaps <= radius (m).
-
-    The gap between regions i and j is their centroid distance less each one's half
-    extent along the line joining them, sqrt(3 dᵀ M d) (half the length of a uniform bar
-    with that variance; M the (n, 2, 2) second moments): two fragments of one 20 m wreck
-    have distant centroids but a small gap. Connected components with
-    scipy.sparse.csgraph."""
-    from scipy.sparse.csgraph import connected_components
-
-    n = len(xy)
-    if n <= 1 or radius <= 0:
-        return np.arange(n)
-    d = xy[None, :, :] - xy[:, None, :]
-    dist = np.linalg.norm(d, axis=-1)
-    u = d / np.maximum(dist, 1e-12)[..., None]
-    half = np.sqrt(3.0 * np.maximum(np.einsum("ijk,ikl,ijl->ij", u, M, u), 0.0))
-    gap = dist - half - half.T
-    _, lab = connected_components(gap <= radius, directed=False)
-    return lab
-
-
-class PersistenceFilter:
-    """k-of-n confirmation of detections at world positions, plus keyframing per track.
-
-    :meth:`step` takes one frame's candidate world positions (m, 2) (placed with the
-    navigation pose) and that pose [x, y, yaw]; returns (confirmed (m,) bool, emit (m,)
-    bool). A candidate is confirmed when, counting this frame, at least k of the last n
-    frames hold a candidate within ``radius`` of it. Confirmed candidates are matched to
-    tracks (nearest within ``track_radius``); a new track, or vehicle motion of at least
-    ``keyframe_distance`` m or ``keyframe_angle`` rad since the track's last emission,
-    marks the candidate ``emit`` (one per track per frame)."""
-
-    def __init__(
-        self,
-        k: int,
-        n: int,
-        radius: float,
-        *,
-        track_radius: float,
-        keyframe_distance: float = 0.0,
-        keyframe_angle: float = 0.0,
-    ) -> None:
-        if not 1 <= k <= n:
-            raise ValueError(f"need 1 <= k <= n, got k={k}, n={n}")
-        self.k, self.n, self.radius = int(k), int(n), float(radius)
-        self.track_radius = float(track_radius)
-        self.keyframe_distance = float(keyframe_distance)
-        self.keyframe_angle = float(keyframe_angle)
-        self._past: deque[np.ndarray] = deque(maxlen=max(self.n - 1, 0) or None)
-        self.tracks = np.zeros((0, 2))  # latest world position per track
-        self._emit_pose = np.zeros((0, 3))  # vehicle pose at each track's last emission
-
-    def step(self, world_xy: np.ndarray, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        w = np.asarray(world_xy, float).reshape(-1, 2)
-        pose = np.asarray(pose, float).reshape(3)
-        m = len(w)
-        hits = np.ones(m, int)
-        for P in self._past if self.n > 1 else ():
-            if len(P) and m:
-                d = np.linalg.norm(w[:, None, :] - P[None, :, :], axis=-1).min(axis=1)
-                hits += d <= self.radius
-        if self.n > 1:
-            self._past.append(w.copy())
-        confirmed = hits >= self.k
-        emit = np.zeros(m, bool)
-        idx = np.flatnonzero(confirmed)
-        if idx.size == 0:
-            return confirmed, emit
-        used = set()
-        # a handful of confirmed objects per frame: a short loop over them, not pixels
-        for i in idx[np.argsort(-hits[idx], kind="stable")]:
-            if len(self.tracks):
-                d = np.linalg.norm(self.tracks - w[i], axis=1)
-                j = int(np.argmin(d))
-                if d[j] > self.track_radius:
-                    j = -1
-            else:
-                j = -1
-            if j < 0:
-                self.tracks = np.vstack([self.tracks, w[i]])
-                self._emit_pose = np.vstack([self._emit_pose, pose])
-                used.add(len(self.tracks) - 1)
-                emit[i] = True
-                continue
-            self.tracks[j] = w[i]
-            if j in used:
-                continue
-            used.add(j)
-            moved = np.hypot(*(pose[:2] - self._emit_pose[j, :2]))
-            turned = abs(float(wrap_angle(pose[2] - self._emit_pose[j, 2])))
-            if moved >= self.keyframe_distance or (
-                self.keyframe_angle > 0 and turned >= self.keyframe_angle
-            ):
-                self._emit_pose[j] = pose
-                emit[i] = True
-        return confirmed, emit
 
 
 @dataclass(frozen=True)
@@ -476,21 +278,33 @@ class PolarFrontend:
         )
         labels, regions = self.segment(g8)
         labels = np.asarray(labels)
-        n_lab = int(labels.max()) if labels.size else 0
         empty = PolarResult(np.zeros(labels.shape, np.int32), [], len(regions), 0)
-        if n_lab == 0:
+        kept = self._kept_regions(labels, db)
+        if kept is None:
             return empty
-        flat = labels.ravel()
-        area = np.bincount(flat, minlength=n_lab + 1)
-        from scipy import ndimage
+        ids, at_far = kept
+        alt = float(altitude) if altitude is not None and np.isfinite(altitude) else 0.0
+        groups, grp, xy, M, cnt, rc = self._objects(labels, ids, alt)
+        g_far = np.bincount(grp, at_far[ids].astype(float), len(xy)) > 0
+        M, var_r, var_t = self._object_covariance(xy, M, alt, g_far)
+        dets = self._detections(xy, M, var_r, var_t, cnt, rc, poses_nav, times)
+        return PolarResult(groups, dets, len(regions), len(dets))
 
+    def _kept_regions(self, labels: np.ndarray, db: np.ndarray):
+        """Step 3: (ids of the regions kept, at_far (n + 1,) bool: reaching the far
+        margin), or None when none is kept."""
+        c = self.cfg
+        n_lab = int(labels.max()) if labels.size else 0
+        if n_lab == 0:
+            return None
+        area = np.bincount(labels.ravel(), minlength=n_lab + 1)
         peak = np.full(n_lab + 1, -np.inf)
         peak[1:] = ndimage.maximum(db, labels, np.arange(1, n_lab + 1))
         keep = (area >= c.min_area_px) & (area <= c.max_area_fraction * labels.size)
         keep &= peak >= c.min_peak_db
         keep[0] = False
-        slant, ang = self._grid(labels.shape)
         if c.drop_truncated:
+            slant, _ = self._grid(labels.shape)
             keep[np.unique(labels[self._edges(labels.shape)])] = False
             far = np.zeros(n_lab + 1)
             far[1:] = ndimage.maximum(slant, labels, np.arange(1, n_lab + 1))
@@ -500,19 +314,23 @@ class PolarFrontend:
         else:
             at_far = np.zeros(n_lab + 1, bool)
         ids = np.flatnonzero(keep)
-        if ids.size == 0:
-            return empty
+        return (ids, at_far) if ids.size else None
+
+    def _objects(self, labels: np.ndarray, ids: np.ndarray, alt: float):
+        """Step 4: kept regions merged into objects. Returns the object label image, the
+        object of each kept region, and per object its centroid (m, body), second moments,
+        cell count and centroid row."""
+        slant, ang = self._grid(labels.shape)
         # body coordinates of every cell (horizontal range on a flat seabed)
-        alt = float(altitude) if altitude is not None and np.isfinite(altitude) else 0.0
         horiz = np.sqrt(np.clip(slant**2 - alt**2, 0.0, None))
         bx = horiz * np.cos(ang) + self.mount_xy[0]
         by = horiz * np.sin(ang) + self.mount_xy[1]
-        remap = np.zeros(n_lab + 1, np.int64)
+        remap = np.zeros(int(labels.max()) + 1, np.int64)
         remap[ids] = np.arange(1, ids.size + 1)
         lab_k = remap[labels]
         cen, Mk, _ = region_moments(lab_k, ids.size, bx, by)
         # one object = regions whose footprints lie within merge_radius (body frame)
-        grp = footprint_gap_groups(cen, Mk, c.merge_radius_m)
+        grp = footprint_gap_groups(cen, Mk, self.cfg.merge_radius_m)
         ng = int(grp.max()) + 1
         gmap = np.concatenate([[0], grp + 1])
         groups = gmap[lab_k].astype(np.int32)
@@ -520,7 +338,14 @@ class PolarFrontend:
         rows_of = np.arange(labels.shape[0])[:, None] * np.ones((1, labels.shape[1]))
         row_c = np.bincount(groups.ravel(), rows_of.ravel(), ng + 1)[1:] / cnt
         rc = np.clip(np.round(row_c).astype(int), 0, labels.shape[0] - 1)
-        # cell variances in native polar coordinates (uniform over a cell), slant -> horizontal
+        return groups, grp, xy, M, cnt, rc
+
+    def _object_covariance(self, xy, M, alt: float, g_far):
+        """Step 4's covariance: cell variances in native polar coordinates (uniform over a
+        cell, slant -> horizontal) and the view terms. Returns (M with the extent term,
+        range variance, bearing variance)."""
+        c = self.cfg
+        ng = len(xy)
         rho_c = np.hypot(xy[:, 0], xy[:, 1])
         s_c = np.sqrt(rho_c**2 + alt**2)
         dr = s_c / np.maximum(rho_c, 1e-9)
@@ -547,15 +372,18 @@ class PolarFrontend:
                 u[:, :, None] * u[:, None, :]
             )
         if c.far_truncation_m > 0:
-            g_far = np.bincount(grp, at_far[ids].astype(float), ng) > 0
             var_r = var_r + g_far * c.far_truncation_m**2 / 12.0
         if c.shadow_bias > 0:
             u = np.column_stack([-xy[:, 1], xy[:, 0]]) / np.maximum(rho_c, 1e-9)[:, None]
             var_across = np.maximum(np.einsum("ni,nij,nj->n", u, M, u), 0.0)
             width = np.maximum(np.sqrt(12.0 * var_across) - grow(u), 0.0)
             var_r = var_r + (c.shadow_bias * width) ** 2
-        M = M_view
-        ok = rho_c > 0
+        return M_view, var_r, var_t
+
+    def _detections(self, xy, M, var_r, var_t, cnt, rc, poses_nav, times):
+        """Steps 4-6 closed: range-bearing observations at the frame's / the centroid
+        ping's pose and time, persistence and keyframing."""
+        ok = np.hypot(xy[:, 0], xy[:, 1]) > 0
         r, b, R = xy_to_range_bearing(xy[ok], M[ok], var_r[ok], var_t[ok])
         gidx = np.flatnonzero(ok)
         poses = np.asarray(poses_nav, float)
@@ -570,7 +398,7 @@ class PolarFrontend:
         wxy = P[:, :2] + r[:, None] * np.column_stack([np.cos(a), np.sin(a)])
         # persistence runs on the frame's pose (FLS) / the scan's last pose (MSIS)
         confirmed, emit = self.persistence.step(wxy, poses.reshape(-1, 3)[-1])
-        dets = [
+        return [
             PolarDetection(
                 RangeBearing(
                     np.array([r[n], b[n]]),
@@ -587,4 +415,3 @@ class PolarFrontend:
             )
             for n, g in enumerate(gidx)
         ]
-        return PolarResult(groups, dets, len(regions), len(dets))

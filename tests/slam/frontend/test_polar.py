@@ -1,4 +1,4 @@
-"""FLS / MSIS front end of the runner (sim.runner.fls_msis) and a CI-sized harbour-fls run."""
+"""FLS / MSIS polar front end (slam.frontend.polar)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from sim.runner.core import _segmenter
-from sim.runner.fls_msis import (
+from slam.frontend.polar import (
     FLS_FRONTEND,
     PersistenceFilter,
     PolarFrontend,
@@ -18,6 +17,7 @@ from sim.runner.fls_msis import (
     region_moments,
     xy_to_range_bearing,
 )
+from slam.pipeline import segmenter
 
 DR_DB = 50.0  # display dynamic range of the synthetic frames (the FLS preset's)
 N_BINS, N_BEAMS, R_MIN, R_MAX, FOV = 256, 128, 0.5, 30.0, math.radians(90.0)
@@ -47,7 +47,7 @@ def _frame(rng, target_rb=None, contrast_db=15.0, size=(6, 4)):
 def _frontend(config=FLS_FRONTEND) -> PolarFrontend:
     return PolarFrontend(
         "fls",
-        _segmenter("improved-otsu", "auto"),
+        segmenter("improved-otsu", "auto"),
         ranges=RANGES,
         angles=BEARINGS,
         bin_width=BIN,
@@ -193,38 +193,3 @@ def test_extended_object_covariance_covers_its_length_across_and_behind(rng):
     r, _ = small.observation.z
     sd_r, sd_b = np.sqrt(np.diag(small.observation.R))
     assert max(sd_r, r * sd_b) < math.sqrt(2.5**2 / 12 + (cfg.extent_bias * 1.2) ** 2)
-
-
-# ---------------------------------------------------------------- CI-sized scenario run ---
-
-
-@pytest.fixture(scope="module")
-def harbour(tmp_path_factory):
-    from sim.runner.core import run_scenario
-    from sim.scenario.schema import load_scenario
-
-    scn = load_scenario(
-        "harbour-fls", {"outputs.figures": False, "outputs.recording": False}
-    ).with_overrides(duration_s=HARBOUR_CI_S)
-    return run_scenario(scn, tmp_path_factory.mktemp("hfls") / "run", progress=False).metrics
-
-
-HARBOUR_CI_S = 32.0
-
-
-def test_harbour_fls_ci_run_detections_and_landmarks_within_bounds(harbour):
-    """The first 32 s of harbour-fls pass the tyre at (15, -10) (a compact object: a point
-    landmark is right for it). Bounds: detection PPV >= 0.8 against the simulator's labels
-    (the speckle-only front end this replaced gave PPV 0 to 0.08 on FLS / MSIS), a
-    landmark within 1.5 m of the tyre, no spurious landmark, and landmark NEES below the
-    chi-square(2) 99.9 % point (13.8): the filter is not wildly overconfident."""
-    v = harbour["vehicles"]["saga"]
-    d, lm = v["detections"], v["landmarks"]
-    assert d["n_detections"] >= 5
-    assert d["ppv"] >= 0.8
-    assert 3 in d["objects_detected"]
-    assert lm["n_spurious"] == 0 and lm["n_duplicated_objects"] == 0
-    assert lm["n_true_mapped"] >= 1 and lm["rmse_m"] < 1.5
-    assert lm["landmark_nees_mean"] < 13.8
-    pc = d["pipeline_counts"]
-    assert pc["fls_observations"] < pc["fls_confirmed"] <= pc["fls_candidates"]
