@@ -121,6 +121,7 @@ class SidescanProcessor:
         min_ground_range: float = 2.0,
         view_bias: float = 0.5,
         min_area_m2: float = 0.0,
+        edge_mask: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> None:
         if not 1 <= hop <= window:
             raise ValueError(f"hop must be in [1, window={window}], got {hop}")
@@ -138,6 +139,9 @@ class SidescanProcessor:
         self.min_ground_range = float(min_ground_range)
         self.view_bias = float(view_bias)
         self.min_area_m2 = float(min_area_m2)
+        # raw window (W, 2S) -> bool mask of the water column and first-return edge;
+        # a detection centred there is the edge, not an object (recorded data)
+        self.edge_mask = edge_mask
         self.pings: list[PingRecord] = []
         self._next_start = 0  # start ping of the next window
         self._owned_until = 0  # pings < this are owned by processed windows
@@ -161,6 +165,7 @@ class SidescanProcessor:
         W, H = self.window, self.hop
         pings = self.pings[a : a + W]
         img = np.stack([p.intensity for p in pings]).astype(np.float32)
+        edge = self.edge_mask(img) if self.edge_mask is not None else None
         lab = np.stack(
             [p.labels if p.labels is not None else np.zeros(img.shape[1], np.int32) for p in pings]
         ).astype(np.int32)
@@ -176,7 +181,9 @@ class SidescanProcessor:
         bg_pixels = int(np.count_nonzero(bg))
         imaged = set(np.unique(lab[rows_owned][lab[rows_owned] > 0]).tolist())
         overlay = np.zeros(img.shape, np.uint16)
-        dets = self._detections(a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay)
+        dets = self._detections(
+            a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay, edge
+        )
         self._owned_until = own_hi
         self._next_start = a + H
         horizon = self.pings[own_hi - 1].t
@@ -184,7 +191,7 @@ class SidescanProcessor:
         return WindowResult(a, img, overlay, dets, horizon, fp_pixels, bg_pixels, imaged)
 
     def _detections(
-        self, a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay
+        self, a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay, edge=None
     ) -> list[Detection]:
         S = img.shape[1] // 2
         rate = self._ping_rate()
@@ -198,6 +205,8 @@ class SidescanProcessor:
             row = float(np.average([g_[0] for g_ in grp], weights=w))
             col = float(np.average([g_[1] for g_ in grp], weights=w))
             k = round(row)
+            if edge is not None and edge[k - a, min(round(col), img.shape[1] - 1)]:
+                continue  # centred on the first-return edge / water column
             port = grp[0][2]
             bb = np.array([g_[5] for g_ in grp])
             ext = (float(bb[:, 2].max() - bb[:, 0].min()), float(bb[:, 3].max() - bb[:, 1].min()))

@@ -18,6 +18,7 @@ import numpy as np
 
 from slam.estimators import make_estimator
 from slam.frontend.polar import FLS_FRONTEND, MSIS_FRONTEND, PolarFrontend, PolarFrontendConfig
+from slam.frontend.segmentation.artefacts import first_return_edge_mask_image
 from slam.frontend.segmentation.methods import segment
 from slam.frontend.sidescan_windows import SidescanProcessor, make_sss_prepare
 from slam.pipeline.frame import SonarGeometry
@@ -41,7 +42,10 @@ class PipelineConfig:
     or "column-median". min_speed_mps: floor of the along-track speed for the side-scan
     pixel size. fls, msis: the polar front end's settings. timing: "lagged" | "naive".
     pose0_var_xy_m2, pose0_sigma_yaw_deg: the initial pose's variance in x and y and
-    1-sigma in yaw.
+    1-sigma in yaw. drop_first_return_edge: side-scan detections centred on the water
+    column or the first-bottom-return edge
+    (slam.frontend.segmentation.artefacts.first_return_edge_mask) are dropped — the
+    symmetric bright rim of the first return on recorded data is not an object.
     """
 
     method: str = "improved-otsu"
@@ -59,6 +63,7 @@ class PipelineConfig:
     timing: str = "lagged"
     pose0_var_xy_m2: float = 0.01
     pose0_sigma_yaw_deg: float = 0.5
+    drop_first_return_edge: bool = False
 
     def __post_init__(self) -> None:
         if not 1 <= self.hop_pings <= self.window_pings:
@@ -105,6 +110,7 @@ REAL_SIDESCAN = replace(
     min_area_m2=0.15,
     min_speed_mps=0.0,
     pose0_var_xy_m2=1e-4,
+    drop_first_return_edge=True,
 )
 
 
@@ -144,6 +150,7 @@ def make_frontend(
             merge_radius=config.merge_radius_m,
             min_area_m2=config.min_area_m2,
             min_ground_range=config.min_ground_range_m,
+            edge_mask=first_return_edge_mask_image if config.drop_first_return_edge else None,
             along_track_beamwidth_deg=g.along_track_beamwidth_deg,
             class_of=class_of,
             prepare=make_sss_prepare(

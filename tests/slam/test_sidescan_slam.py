@@ -135,3 +135,11 @@ def test_cli_on_the_real_scotsman_recording(shared_data, tmp_path, capsys):
     assert any(abs(d["ping"] - 281) <= 30 for d in stbd), summary["detections"]
     assert summary["landmarks_m"] and (tmp_path / "sss_slam.png").stat().st_size > 10_000
     assert json.loads((tmp_path / "result.json").read_text())["pings_used"] == 460
+    # issue 14: no detection on the first-return edge (its signature: a port and a
+    # starboard detection on the same ping, mirror images across nadir) and the wreck
+    # as one landmark with at most one spurious beside it
+    pings = {}
+    for d in summary["detections"]:
+        pings.setdefault(d["ping"], set()).add(d["side"])
+    assert not [k for k, sides in pings.items() if len(sides) == 2], summary["detections"]
+    assert 1 <= len(summary["landmarks_m"]) <= 2, summary["landmarks_m"]

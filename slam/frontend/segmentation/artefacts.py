@@ -213,6 +213,18 @@ def first_return_edge_mask(
     return np.hstack([port[:, ::-1], stbd])
 
 
+def first_return_edge_mask_image(intensity: np.ndarray, **kwargs) -> np.ndarray:
+    """:func:`first_return_edge_mask` of a bare ``(pings, 2 × samples)`` window (port
+    on the left), as the pipeline's side-scan windows hold it; ``kwargs`` passed on."""
+    img = np.asarray(intensity, dtype=np.float32)
+    if img.ndim != 2 or img.shape[1] % 2:
+        raise ValueError(f"intensity shape {img.shape}: need (pings, 2 × samples)")
+    p = img.shape[0]
+    nan = np.full(p, np.nan)
+    wf = Waterfall(img, img.shape[1] // 2, np.arange(p, dtype=np.float64), np.ones(p), nan, nan)
+    return first_return_edge_mask(wf, **kwargs)
+
+
 def drop_first_return_edge(
     detections: Sequence, waterfall: Waterfall, ping_index: np.ndarray | None = None, **kwargs
 ) -> list:
