@@ -4,8 +4,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
+
+from sim.cli.common import finite_float, print_json
 
 HELP = "export labelled sonar frames (SSS tiles, FLS frames) with instance masks in COCO format"
 
@@ -40,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--fls-interval",
-        type=float,
+        type=finite_float,
         default=1.0,
         help="simulated seconds between exported FLS frames (default 1.0)",
     )
@@ -147,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
         "frames_per_s": res.frames_per_s,
     }
     if args.json:
-        print(json.dumps(summary, indent=1))
+        print_json(summary, indent=1)
     else:
         fps = f", {res.frames_per_s:.2f} frames/s" if res.frames_per_s else ""
         print(

@@ -4,10 +4,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
+
+from sim.cli.common import CliError, print_json, writable_file
 
 HELP = "normalize a side-scan waterfall (.xtf or image) with MIRA or DCP; print SIQEM before/after"
 
@@ -58,6 +59,8 @@ def run(args: argparse.Namespace) -> int:
     from slam.frontend.normalization import dcp_normalize, mira_normalize, seabed_mask
     from slam.frontend.quality import siqem
 
+    writable_file(args.out, "--out")
+    writable_file(args.compare, "--compare")
     try:
         wf = load_waterfall(args.file)
         t0 = time.perf_counter()
@@ -94,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         import cv2
 
-        cv2.imwrite(args.out, display_uint8(out))
+        if not cv2.imwrite(args.out, display_uint8(out)):
+            raise CliError(f"--out {args.out!r}: OpenCV could not write it; allowed: a .png path")
         report["out"] = args.out
     if args.compare:
         import matplotlib
@@ -116,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
         plt.close(fig)
         report["compare"] = args.compare
     if args.json:
-        print(json.dumps(report, default=float))
+        print_json(report)
     else:
         print(
             f"{report['file']}: {report['shape'][0]} pings x {report['shape'][1]} samples, method {args.method}"

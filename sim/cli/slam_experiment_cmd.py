@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
+
+from sim.cli.common import print_json
 
 HELP = "run the reference's simulated SLAM experiments (dense-loop, line, segmentation-loop)"
 
@@ -95,8 +96,6 @@ def run(args: argparse.Namespace) -> int:
         summary["n_loops"] = spec.sim.n_loops
     summary["unbiased_odometry"] = spec.sim.unbiased_odometry
     if args.json:
-        from slam.experiments.runner import _jsonable
-
         summary = dict(summary)
         if args.runs > 1:
             summary["runs"] = [
@@ -107,8 +106,7 @@ def run(args: argparse.Namespace) -> int:
                 }
                 for r in summary["runs"]
             ]
-        json.dump(_jsonable(summary), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(summary)
         return 0
     s = summary
     print(

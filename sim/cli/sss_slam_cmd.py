@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
+
+from sim.cli.common import finite_float, print_json
+from sim.jsonsafe import dumps
 
 HELP = "run the segmentation front end and SLAM on a recorded side-scan XTF file (needs its navigation)"
 
@@ -22,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--altitude", default="first_return", choices=("first_return", "nav"))
     parser.add_argument("--nav-units", default="auto", choices=("auto", "degrees", "metres"),
                         help="position units (auto: the XTF header's NavUnits)")
-    parser.add_argument("--odometry-sigma-frac", type=float, default=0.02,
+    parser.add_argument("--odometry-sigma-frac", type=finite_float, default=0.02,
                         help="1-sigma odometry error per metre travelled (fraction)")
     parser.add_argument("--out", default=None, help="directory for result.json and sss_slam.png")
     parser.add_argument("--json", action="store_true", help="print the result summary as JSON")
@@ -47,11 +49,11 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        (out / "result.json").write_text(json.dumps(summary, indent=1))
+        (out / "result.json").write_text(dumps(summary, indent=1))
         plot_sidescan_slam(wf, result, out / "sss_slam.png")
         summary["figure"] = str(out / "sss_slam.png")
     if args.json:
-        print(json.dumps(summary, indent=1))
+        print_json(summary, indent=1)
     else:
         print(f"{args.file}: {summary['pings_used']} pings, {summary['windows']} windows, "
               f"{len(result.detections)} detections, {len(result.landmarks)} landmarks "

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
+
+from sim.cli.common import print_json
+from sim.jsonsafe import dumps
 
 HELP = "run Monte Carlo variants of a scenario or SLAM experiment in parallel and aggregate metrics"
 
@@ -48,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     table.to_csv(out / "summary.csv")
     parquet = table.to_parquet(out / "summary.parquet")
     nees = nees_consistency(records)
-    (out / "nees_consistency.json").write_text(json.dumps(nees, indent=1))
+    (out / "nees_consistency.json").write_text(dumps(nees, indent=1))
     summary = {
         "out": str(out),
         "finished_now": len(result.finished),
@@ -61,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         "nees_consistency": nees,
     }
     if args.json:
-        print(json.dumps(summary, indent=1))
+        print_json(summary, indent=1)
     else:
         print(f"sweep {plan.target}: {len(result.finished)} run(s) now, {len(result.skipped)} resumed, "
               f"{len(result.failed)} failed, {result.wall_s:.1f} s -> {out}")

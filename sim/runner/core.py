@@ -21,8 +21,6 @@ and the real-time factor) depends only on the scenario and the seed.
 from __future__ import annotations
 
 import math
-import os
-import sys
 import time
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -33,8 +31,10 @@ import numpy as np
 from sim.runner.fls_msis import FLS_FRONTEND, MSIS_FRONTEND, PolarFrontend
 from sim.runner.lagged import LaggedSlam, apply_increment
 from sim.runner.metrics import detection_metrics, landmark_metrics, pose_metrics
-from sim.runner.output import RunDirectory
+from sim.runner.output import RunDirectory, discard_partial_on_error
+from sim.runner.progress import make_progress
 from sim.scenario.schema import Scenario, SonarSpec, VehicleSpec
+from sim.scenario.seabed_check import seabed_spec
 from slam.frontend.sidescan_windows import (
     PingRecord,
     SidescanProcessor,
@@ -47,19 +47,10 @@ from slam.types import Odometry
 
 def world_spec_from_scenario(scn: Scenario):
     """sim.world.WorldSpec for a scenario (seabed, water, current, objects, vehicles)."""
-    from sim.world import CurrentSpec, ObjectSpec, SeabedSpec, VehicleSpec, Water, WorldSpec
+    from sim.world import CurrentSpec, ObjectSpec, VehicleSpec, Water, WorldSpec
 
     w = scn.world
-    size = max(w.size_m)
-    res = float(np.clip(size / 400.0, 0.25, 2.0))
-    seabed = SeabedSpec(
-        kind=w.seabed,
-        size_xy=w.size_m,
-        resolution=res,
-        depth=w.depth_m,
-        seed=scn.world_seed,
-        grid_path=w.grid_path or None,
-    )
+    seabed = seabed_spec(w, scn.world_seed)
     water = Water.from_ts(w.water.temperature_c, w.water.salinity_psu, reference_depth_m=w.depth_m)
     cur = CurrentSpec(
         velocity=w.water.current_mps,
@@ -930,12 +921,7 @@ class _SonarWater:
 # ----------------------------------------------------------------------- entry point ----
 
 
-def _progress_enabled(progress: bool | None) -> bool:
-    if progress is not None:
-        return progress
-    return sys.stderr.isatty() and os.environ.get("CI", "").lower() not in ("1", "true", "yes")
-
-
+@discard_partial_on_error
 def run_scenario(
     scenario: Scenario,
     out_dir: str | Path,
@@ -946,9 +932,10 @@ def run_scenario(
 ) -> RunResult:
     """Run a validated scenario headless and write its outputs to ``out_dir``.
 
-    progress: tqdm bar with sim time, real-time factor and ETA (default: on a TTY unless
-    CI=true). stop_flag: optional callable polled every tick; True stops the run as
-    Ctrl-C does (used by tests). Returns the metrics and whether the run completed.
+    progress: tqdm bar with sim time, real-time factor and ETA on a terminal, a plain
+    line every 5 s otherwise (default); False for none (sim.runner.progress).
+    stop_flag: optional callable polled every tick; True stops the run as Ctrl-C does
+    (used by tests). Returns the metrics and whether the run completed.
     """
     from sim.viz import rerun_log as L
 
@@ -966,27 +953,8 @@ def run_scenario(
     run = ScenarioRun(scenario, rec)
     if rec is not None:
         run.log_static()
-    bar = None
-    cb = None
-    if _progress_enabled(progress):
-        from tqdm import tqdm
-
-        bar = tqdm(
-            total=round(scenario.duration_s, 1),
-            unit="sim s",
-            desc=scenario.name,
-            dynamic_ncols=True,
-            bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining} ETA{postfix}]",
-        )
-        last = [0.0]
-
-        def cb(t: float) -> None:
-            if t - last[0] >= 1.0 or t >= scenario.duration_s - 1e-6:
-                bar.update(round(t - last[0], 1))
-                last[0] = round(t, 1)
-                el = time.perf_counter() - wall0
-                bar.set_postfix_str(f"RTF {t / max(el, 1e-9):.2f}")
-
+    bar = make_progress(scenario.name, scenario.duration_s, progress)
+    cb = None if bar is None else bar.update
     complete = False
     error: BaseException | None = None
     try:
