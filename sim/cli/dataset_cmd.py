@@ -19,6 +19,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out", required=True, help="output directory (resumes if it holds the same dataset)"
     )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="--out holds a dataset of another plan: delete it and start over",
+    )
     parser.add_argument("--seed", type=int, default=0, help="dataset seed (default 0)")
     parser.add_argument(
         "--workers", type=int, default=1, help="parallel workers (default 1: serial)"
@@ -133,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
             use_ray=use_ray,
             ray_address=address,
             progress=not args.no_progress,
+            force=args.force,
         )
     except (ValueError, RuntimeError) as exc:
         print(f"undersea dataset: {exc}", file=sys.stderr)

@@ -27,7 +27,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=1, help="parallel workers (default 1: serial)")
     parser.add_argument("--ray", dest="ray_address", nargs="?", const="local", default=None,
                         metavar="ADDRESS", help="run on Ray: a cluster address, or no value for a local Ray")
-    parser.add_argument("--out", default="runs/sweep", help="output directory (resumes if it exists)")
+    parser.add_argument("--out", default="runs/sweep",
+                        help="output directory (resumes if it holds the same plan)")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="--out holds a sweep of another plan: delete its results and start over",
+    )
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 
