@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from sim.cli.common import print_json
+from sim.cli.common import CliError, print_json
 
 HELP = "run the reference's simulated SLAM experiments (dense-loop, line, segmentation-loop)"
 
@@ -71,9 +71,9 @@ def run(args: argparse.Namespace) -> int:
     from slam.experiments import get_experiment, run_monte_carlo, save_results
 
     if args.runs < 1:
-        raise SystemExit(f"undersea slam-experiment: --runs must be >= 1, got {args.runs}")
+        raise CliError(f"--runs must be >= 1, got {args.runs}")
     if args.loops is not None and args.loops < 1:
-        raise SystemExit(f"undersea slam-experiment: --loops must be >= 1, got {args.loops}")
+        raise CliError(f"--loops must be >= 1, got {args.loops}")
     spec = get_experiment(
         args.experiment, dt=args.dt, n_loops=args.loops, unbiased_odometry=args.unbiased_odometry
     )
@@ -83,10 +83,10 @@ def run(args: argparse.Namespace) -> int:
             spec, args.filter, runs=args.runs, seed=args.seed, estimator_params=params
         )
     except ImportError as exc:
-        raise SystemExit(f"undersea slam-experiment: {exc}") from exc
+        raise CliError(f"{exc}") from exc
     except (TypeError, ValueError) as exc:
-        raise SystemExit(
-            f"undersea slam-experiment: bad estimator parameters {params}: {exc}"
+        raise CliError(
+            f"bad estimator parameters {params}: {exc}"
         ) from exc
     if args.out:
         summary = save_results(mc, spec, args.out)
