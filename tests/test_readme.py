@@ -36,6 +36,8 @@ def shared_data_dir() -> Path | None:
         if c.is_dir():
             return c
     return None
+
+
 FENCE = re.compile(r"^```(sh|python)\n(.*?)^```", re.M | re.S)
 
 
@@ -143,7 +145,11 @@ def test_readme_block_runs(index, workdir):
     env = _env()
     if kind == "python":
         r = subprocess.run(
-            [sys.executable, "-c", code], cwd=workdir, env=env, capture_output=True, text=True,
+            [sys.executable, "-c", code],
+            cwd=workdir,
+            env=env,
+            capture_output=True,
+            text=True,
             timeout=600,
         )
         assert r.returncode == 0, r.stderr[-3000:]
@@ -161,8 +167,12 @@ def test_readme_block_runs(index, workdir):
                 head, redirect, tail = cmd.partition(" > ")
                 cmd = f"{head} {ci[1:].strip()}" + (f" > {tail}" if redirect else "")
             r = subprocess.run(
-                ["bash", "-c", f"set -o pipefail; {cmd}"], cwd=workdir, env=env,
-                capture_output=True, text=True, timeout=900,
+                ["bash", "-c", f"set -o pipefail; {cmd}"],
+                cwd=workdir,
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=900,
             )
             assert r.returncode == 0, (cmd, r.stderr[-3000:])
         ran += 1

@@ -20,8 +20,23 @@ from sim.cli.main import main
 
 #: values users mistype: non-numbers, non-finite, negative, empty, paths that cannot work
 WORDS = st.sampled_from(
-    ["nan", "inf", "-inf", "-1", "0", "1e400", "", "abc", "/proc/x", "/missing_dir/x.png",
-     "3", "0.5", "-", "--", "🙂"]
+    [
+        "nan",
+        "inf",
+        "-inf",
+        "-1",
+        "0",
+        "1e400",
+        "",
+        "abc",
+        "/proc/x",
+        "/missing_dir/x.png",
+        "3",
+        "0.5",
+        "-",
+        "--",
+        "🙂",
+    ]
 )
 TOKENS = st.one_of(WORDS, st.text(max_size=6))
 
@@ -29,8 +44,15 @@ OPTIONS = {
     "uwsn": ["--sigma", "--altitude", "--heading-b", "--nodes", "--seed", "--plot"],
     "normalize": ["--method", "--ping", "--block", "--average", "--patch", "--out", "--compare"],
     "match": ["--detector", "--ratio", "--model", "--ransac-threshold", "--plot"],
-    "segment": ["--method", "--preset", "--filter", "--tol", "--min-area", "--max-count",
-                "--overlay"],
+    "segment": [
+        "--method",
+        "--preset",
+        "--filter",
+        "--tol",
+        "--min-area",
+        "--max-count",
+        "--overlay",
+    ],
     "run": ["--seed", "--duration", "--out"],
     "sweep": ["--runs", "--seed", "--vary", "--workers"],
     "view": ["--port", "--grpc-port"],
@@ -68,7 +90,11 @@ def argv(draw) -> tuple[list[str], bytes]:
         args += [draw(st.sampled_from(["shipwreck-survey", "no-such", "in.png"]))]
         args += ["--duration", draw(st.sampled_from(["nan", "-1", "0", "abc", "inf"]))]
     elif cmd == "sweep":
-        args += ["slam:dense-loop", "--vary", draw(st.sampled_from(["bogus=1", "x", "=", "a.b=1,2"]))]
+        args += [
+            "slam:dense-loop",
+            "--vary",
+            draw(st.sampled_from(["bogus=1", "x", "=", "a.b=1,2"])),
+        ]
     for _ in range(draw(st.integers(0, 3))):
         if OPTIONS[cmd]:
             args += [draw(st.sampled_from(OPTIONS[cmd])), draw(TOKENS)]

@@ -81,7 +81,9 @@ def test_run_into_an_unwritable_place_is_exit_2(capsys):
 
 def test_sweep_with_an_unknown_key_is_exit_2_and_runs_nothing(tmp_path, capsys):
     out = tmp_path / "sw"
-    rc = main(["sweep", "shipwreck-survey", "--runs", "1", "--vary", "bogus.key=1", "--out", str(out)])
+    rc = main(
+        ["sweep", "shipwreck-survey", "--runs", "1", "--vary", "bogus.key=1", "--out", str(out)]
+    )
     assert rc == 2
     cap = capsys.readouterr()
     assert "'bogus'" in cap.err and cap.out == ""

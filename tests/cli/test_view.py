@@ -110,4 +110,3 @@ def test_two_viewers_localhost_and_clean_stop(recording, sig):
             if proc.poll() is None:
                 proc.send_signal(signal.SIGTERM)
                 proc.wait(timeout=30)
-

@@ -81,4 +81,7 @@ def test_remove_stale_partials_ignores_other_names(tmp_path):
         (tmp_path / name).mkdir()
     removed = remove_stale_partials(out)
     assert [p.name for p in removed] == [".run.partial-999999999"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".run.partial-abc", ".runx.partial-999999999"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        ".run.partial-abc",
+        ".runx.partial-999999999",
+    ]

@@ -19,7 +19,13 @@ BUILTINS = {name: load_scenario_dict(name) for name in builtin_scenarios()}
 def _paths(node, prefix=()) -> list[tuple]:
     """Every key path (tuple of keys / list indices) of a decoded TOML tree."""
     out = []
-    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    items = (
+        node.items()
+        if isinstance(node, dict)
+        else enumerate(node)
+        if isinstance(node, list)
+        else ()
+    )
     for k, v in items:
         out.append((*prefix, k))
         out.extend(_paths(v, (*prefix, k)))

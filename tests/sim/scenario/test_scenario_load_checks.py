@@ -109,6 +109,6 @@ def test_cli_exit_2_and_no_partial_for_a_bad_grid(tmp_path, capsys):
 
 def test_cli_non_utf8_exit_2(tmp_path, capsys):
     p = tmp_path / "bad.toml"
-    p.write_bytes(b"name = \"\xff\"\n")
+    p.write_bytes(b'name = "\xff"\n')
     assert main(["run", str(p), "--out", str(tmp_path / "o")]) == 2
     assert "not UTF-8" in capsys.readouterr().err
