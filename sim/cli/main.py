@@ -116,6 +116,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stdout.flush()
     except BrokenPipeError:
         return _stdout_closed()
+    except KeyboardInterrupt:
+        print(f"undersea {args.command}: interrupted", file=sys.stderr)
+        return 130
     except (CliError, ValueError, OSError) as exc:
         if os.environ.get("UNDERSEA_DEBUG"):
             raise
