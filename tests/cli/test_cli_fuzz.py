@@ -116,7 +116,7 @@ def _run(args: list[str]) -> tuple[int, str, str]:
 CASES = {"n": 0}
 
 
-@settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(argv())
 def test_random_arguments_exit_0_or_2_without_traceback(case):
     args, png = case

@@ -70,7 +70,7 @@ def mutated(draw):
     return data
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated())
 def test_mutated_builtins_parse_or_name_a_field(data):
     try:
@@ -98,7 +98,7 @@ def damaged_file(draw) -> bytes:
     return bytes(raw[:i]) + draw(st.binary(min_size=1, max_size=8)) + bytes(raw[i:])
 
 
-@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(damaged_file())
 def test_damaged_files_load_or_raise_scenario_error(content):
     import tempfile
