@@ -49,7 +49,7 @@ class LineProgress:
         self.last = now
         wall = max(now - self.t0, 1e-9)
         rtf = t_sim / wall
-        eta = (self.duration_s - t_sim) / rtf if rtf > 0 else float("inf")
+        eta = max(self.duration_s - t_sim, 0.0) / rtf if rtf > 0 else float("inf")
         eta_txt = f"{eta:.0f} s" if eta < 120 else f"{eta / 60:.1f} min"
         pct = 100.0 * t_sim / self.duration_s if self.duration_s > 0 else 100.0
         print(
