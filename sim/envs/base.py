@@ -109,6 +109,7 @@ class UnderseaEnv(gym.Env):
         self.n_actuators = self.vehicle.n_thrusters
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.n_actuators,), np.float32)
         self._rec = None
+        self._closed = False  # set by close(); step/reset then raise
         self._trail: list[np.ndarray] = []
         self._base_image: np.ndarray | None = None
         self._last_u = np.zeros(self.n_actuators)
