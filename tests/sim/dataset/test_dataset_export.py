@@ -417,6 +417,9 @@ def test_min_objects_keeps_only_frames_with_objects(scene, tmp_path):
     assert coco["images"][0]["time_s"] > 2.0
 
 
+# slow: the same kill-and-resubmit of sim.parallel.run_local_pool is tested in CI by the
+# sweep's test_killed_worker_loses_no_finished_run
+@pytest.mark.slow
 def test_killed_worker_process_shard_is_redone_in_the_same_run(scene, serial, tmp_path):
     """SIGKILL one of 2 local worker processes once the first shard is on disk: the export
     still finishes in the same call (the lost shard runs again on a fresh pool) and writes
