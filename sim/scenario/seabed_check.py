@@ -18,14 +18,14 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.world.seabed import Seabed, SeabedSpec, _check_grid, height_grid
+from sim.world.seabed import Seabed, SeabedSpec, check_depth_grid, height_grid
 
 #: a start must be at least this far above the seabed, m (the largest hull half-height)
 START_CLEARANCE_M = 0.5
 
 
 def _error(path: str, value, allowed: str):
-    from sim.scenario.schema import ScenarioError
+    from sim.scenario.schema import ScenarioError  # here: schema imports this module
 
     return ScenarioError(f"scenario field '{path}': got {value!r}; allowed: {allowed}")
 
@@ -49,7 +49,7 @@ def load_grid(grid_path: str, field: str = "world.grid_path") -> np.ndarray:
     if not isinstance(g, np.ndarray) or not np.issubdtype(g.dtype, np.number):
         raise _error(field, grid_path, "one numeric 2-D array saved with numpy.save")
     try:
-        return _check_grid(g)
+        return check_depth_grid(g)
     except ValueError as exc:
         raise _error(field, grid_path, str(exc)) from exc
 
