@@ -10,6 +10,8 @@ import argparse
 import importlib.util
 from pathlib import Path
 
+from sim.cli.common import CliError
+
 HELP = "run a speed benchmark (physics, sonar, frontend, slam, env, sweep) and print its figures"
 
 
@@ -32,12 +34,12 @@ def run(args: argparse.Namespace) -> int:
     if not path.is_file():
         names = available()
         if not benchmarks_dir().is_dir():
-            raise SystemExit(
-                "undersea bench: benchmarks ship with the source checkout "
+            raise CliError(
+                "benchmarks ship with the source checkout "
                 f"(expected them in {benchmarks_dir()})"
             )
-        raise SystemExit(
-            f"undersea bench: unknown target {args.target!r}; allowed: {', '.join(names) or '(none yet)'}"
+        raise CliError(
+            f"unknown target {args.target!r}; allowed: {', '.join(names) or '(none yet)'}"
         )
     spec = importlib.util.spec_from_file_location(f"bench_{args.target}", path)
     module = importlib.util.module_from_spec(spec)

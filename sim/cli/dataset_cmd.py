@@ -4,8 +4,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
+
+from sim.cli.common import finite_float, print_json
 
 HELP = "export labelled sonar frames (SSS tiles, FLS frames) with instance masks in COCO format"
 
@@ -17,6 +18,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", type=int, required=True, help="number of frames N (>= 1)")
     parser.add_argument(
         "--out", required=True, help="output directory (resumes if it holds the same dataset)"
+    )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="--out holds a dataset of another plan: delete it and start over",
     )
     parser.add_argument("--seed", type=int, default=0, help="dataset seed (default 0)")
     parser.add_argument(
@@ -40,7 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--fls-interval",
-        type=float,
+        type=finite_float,
         default=1.0,
         help="simulated seconds between exported FLS frames (default 1.0)",
     )
@@ -132,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
             use_ray=use_ray,
             ray_address=address,
             progress=not args.no_progress,
+            force=args.force,
         )
     except (ValueError, RuntimeError) as exc:
         print(f"undersea dataset: {exc}", file=sys.stderr)
@@ -147,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
         "frames_per_s": res.frames_per_s,
     }
     if args.json:
-        print(json.dumps(summary, indent=1))
+        print_json(summary, indent=1)
     else:
         fps = f", {res.frames_per_s:.2f} frames/s" if res.frames_per_s else ""
         print(

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
+from sim.cli.common import CliError, finite_float, print_json, writable_file
 from slam.frontend.matching import DETECTORS
 
 HELP = (
@@ -29,10 +29,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=DETECTOR_HELP,
     )
     parser.add_argument(
-        "--ratio", type=float, default=0.8, help="alpha of eqs. 4.17-4.18, in (0, 1]"
+        "--ratio", type=finite_float, default=0.8, help="alpha of eqs. 4.17-4.18, in (0, 1]"
     )
     parser.add_argument("--model", choices=("similarity", "homography"), default="similarity")
-    parser.add_argument("--ransac-threshold", type=float, default=3.0, help="px")
+    parser.add_argument("--ransac-threshold", type=finite_float, default=3.0, help="px")
     parser.add_argument("--plot", default=None, help="write a PNG of the inlier matches")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from slam.frontend.matching import match_images
     from slam.io.images import read_image
 
+    writable_file(args.plot, "--plot")
     try:
         a = read_image(args.a).image
         b = read_image(args.b).image
@@ -79,10 +80,11 @@ def run(args: argparse.Namespace) -> int:
             matchColor=(0, 255, 0),
             flags=cv2.DrawMatchesFlags_NOT_DRAW_SINGLE_POINTS,
         )
-        cv2.imwrite(args.plot, vis)
+        if not cv2.imwrite(args.plot, vis):
+            raise CliError(f"--plot {args.plot!r}: OpenCV could not write it; allowed: a .png path")
         out["plot"] = args.plot
     if args.json:
-        print(json.dumps(out))
+        print_json(out)
     else:
         print(
             f"{args.detector}: {out['keypoints_a']} / {out['keypoints_b']} keypoints, "

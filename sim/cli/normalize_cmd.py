@@ -10,12 +10,12 @@ still run (exit 2 when any failed); ``--json`` prints one list of per-file resul
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
 from sim.cli.batch import expand_inputs, run_batch
+from sim.cli.common import print_json, writable_file
 
 HELP = (
     "normalize side-scan waterfalls (recordings, images or folders) with MIRA or DCP; "
@@ -167,13 +167,15 @@ def run(args: argparse.Namespace) -> int:
 
     single = len(args.files) == 1 and not Path(args.files[0]).is_dir()
     if single:
+        writable_file(args.out, "--out")  # CliError: message on stderr, exit 2
+        writable_file(args.compare, "--compare")
         try:
             report = normalize_one(args.files[0], args, args.out, args.compare)
         except ValueError as exc:
             print(f"undersea normalize: {exc}", file=sys.stderr)
             return 2
         if args.json:
-            print(json.dumps(report, default=float))
+            print_json(report)
         else:
             _print_report(report, args)
         return 0
@@ -194,7 +196,7 @@ def run(args: argparse.Namespace) -> int:
 
     results, code = run_batch(files, one, command="normalize")
     if args.json:
-        print(json.dumps(results, default=float))
+        print_json(results)
     else:
         for r in results:
             if r["ok"]:

@@ -5,10 +5,11 @@ the reference's confusion matrix, FPR, PPV and recall (thesis ch. 3.3–3.4)."""
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
+
+from sim.cli.common import finite_float, print_json
 
 HELP = "segment sonar images (improved Otsu TSM or baselines); landmarks, thresholds, scores"
 
@@ -39,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="ground-truth masks (same file name or stem as each image; > 127 = object)",
     )
     parser.add_argument(
-        "--tol", type=float, default=0.0, help="centroid match tolerance in px (default 0)"
+        "--tol", type=finite_float, default=0.0, help="centroid match tolerance in px (default 0)"
     )
     parser.add_argument(
         "--merge-components",
@@ -56,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--min-contrast-db",
-        type=float,
+        type=finite_float,
         default=None,
         help="detection filter: min local contrast, dB (region vs background ring)",
     )
@@ -67,9 +68,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="detection filter: side of far range along the columns, where the shadow lies",
     )
     parser.add_argument("--min-area", type=int, default=None, help="region filter: min area px")
-    parser.add_argument("--max-area", type=float, default=None, help="region filter: max area px")
     parser.add_argument(
-        "--max-elongation", type=float, default=None, help="region filter: max major/minor"
+        "--max-area", type=finite_float, default=None, help="region filter: max area px"
+    )
+    parser.add_argument(
+        "--max-elongation", type=finite_float, default=None, help="region filter: max major/minor"
     )
     parser.add_argument(
         "--max-count", type=int, default=None, help="region filter: keep the N largest (0 = all)"
@@ -181,15 +184,17 @@ def run(args: argparse.Namespace) -> int:
         overlay_dir.mkdir(parents=True, exist_ok=True)
 
     records = []
+    failed: list[dict] = []  # unreadable images: reported, the others still processed
     scores: dict[str, list] = {m: [] for m in methods}
     for path_str in args.images:
         path = Path(path_str)
         try:
             gray = load_gray8(path)
             truth = load_mask(find_mask(mask_dir, path), gray.shape) if mask_dir else None
-        except ValueError as exc:
-            print(f"undersea segment: {exc}", file=sys.stderr)
-            return 2
+        except (ValueError, OSError) as exc:
+            print(f"undersea segment: skipped {str(path)!r}: {exc}", file=sys.stderr)
+            failed.append({"image": str(path), "error": str(exc)})
+            continue
         params = get_preset(args.preset, gray.shape)
         for method in methods:
             res = segment_filtered(
@@ -217,18 +222,17 @@ def run(args: argparse.Namespace) -> int:
         for m in methods:
             summary[m] = sum_scores(scores[m]).to_dict()
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "preset": args.preset,
-                    "filter": args.filter,
-                    "region_filter": region_filter.to_dict(),
-                    "tol_px": args.tol,
-                    "images": records,
-                    "summary": summary,
-                },
-                indent=1,
-            )
+        print_json(
+            {
+                "preset": args.preset,
+                "filter": args.filter,
+                "region_filter": region_filter.to_dict(),
+                "tol_px": args.tol,
+                "images": records,
+                "failed": failed,
+                "summary": summary,
+            },
+            indent=1,
         )
     elif summary:
         print("== summary over all images (counts summed) ==")
@@ -239,6 +243,13 @@ def run(args: argparse.Namespace) -> int:
                 f"[FP {cm[1][0]} TN {cm[1][1]}]]  FPR {_fmt(s['fpr'])}  PPV {_fmt(s['ppv'])}  "
                 f"recall {_fmt(s['recall'])}  hit-rate {_fmt(s['hit_rate'])}"
             )
+    if failed:
+        print(
+            f"undersea segment: {len(failed)} of {len(args.images)} image(s) could not be read "
+            "(named above); the others were processed",
+            file=sys.stderr,
+        )
+        return 2
     return 0
 
 

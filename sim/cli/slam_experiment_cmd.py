@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
+
+from sim.cli.common import CliError, print_json
 
 HELP = "run the reference's simulated SLAM experiments (dense-loop, line, segmentation-loop)"
 
@@ -70,9 +71,9 @@ def run(args: argparse.Namespace) -> int:
     from slam.experiments import get_experiment, run_monte_carlo, save_results
 
     if args.runs < 1:
-        raise SystemExit(f"undersea slam-experiment: --runs must be >= 1, got {args.runs}")
+        raise CliError(f"--runs must be >= 1, got {args.runs}")
     if args.loops is not None and args.loops < 1:
-        raise SystemExit(f"undersea slam-experiment: --loops must be >= 1, got {args.loops}")
+        raise CliError(f"--loops must be >= 1, got {args.loops}")
     spec = get_experiment(
         args.experiment, dt=args.dt, n_loops=args.loops, unbiased_odometry=args.unbiased_odometry
     )
@@ -82,10 +83,10 @@ def run(args: argparse.Namespace) -> int:
             spec, args.filter, runs=args.runs, seed=args.seed, estimator_params=params
         )
     except ImportError as exc:
-        raise SystemExit(f"undersea slam-experiment: {exc}") from exc
+        raise CliError(f"{exc}") from exc
     except (TypeError, ValueError) as exc:
-        raise SystemExit(
-            f"undersea slam-experiment: bad estimator parameters {params}: {exc}"
+        raise CliError(
+            f"bad estimator parameters {params}: {exc}"
         ) from exc
     if args.out:
         summary = save_results(mc, spec, args.out)
@@ -95,8 +96,6 @@ def run(args: argparse.Namespace) -> int:
         summary["n_loops"] = spec.sim.n_loops
     summary["unbiased_odometry"] = spec.sim.unbiased_odometry
     if args.json:
-        from slam.experiments.runner import _jsonable
-
         summary = dict(summary)
         if args.runs > 1:
             summary["runs"] = [
@@ -107,8 +106,7 @@ def run(args: argparse.Namespace) -> int:
                 }
                 for r in summary["runs"]
             ]
-        json.dump(_jsonable(summary), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(summary)
         return 0
     s = summary
     print(

@@ -4,10 +4,11 @@ XTF file, or FLS polar frames ``FILE.npy`` with their JSON sidecar (docs/pipelin
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
+from sim.cli.common import finite_float, print_json
+from sim.jsonsafe import dumps
 from slam.estimators import ESTIMATORS
 
 HELP = (
@@ -30,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--altitude", default="first_return", choices=("first_return", "nav"))
     parser.add_argument("--nav-units", default="auto", choices=("auto", "degrees", "metres"),
                         help="position units (auto: the XTF header's NavUnits)")
-    parser.add_argument("--odometry-sigma-frac", type=float, default=0.02,
+    parser.add_argument("--odometry-sigma-frac", type=finite_float, default=0.02,
                         help="1-sigma odometry error per metre travelled (fraction)")
     parser.add_argument("--out", default=None, help="directory for result.json, sss_slam.png and the "
                         "GIS outputs (mosaic.tif, landmarks.geojson, detections.geojson)")
@@ -39,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _write_result(out: Path, summary: dict) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    (out / "result.json").write_text(json.dumps(summary, indent=1))
+    (out / "result.json").write_text(dumps(summary, indent=1))
 
 
 def run_fls(args: argparse.Namespace) -> int:
@@ -63,7 +64,7 @@ def run_fls(args: argparse.Namespace) -> int:
     if args.out:
         _write_result(Path(args.out), summary)
     if args.json:
-        print(json.dumps(summary, indent=1))
+        print_json(summary, indent=1)
     else:
         print(f"{args.file}: {summary['frames']} frames, {len(result.detections)} confirmed "
               f"detections, {result.n_observations} observations, {len(result.landmarks)} "
@@ -110,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
             except ValueError as exc:
                 print(f"undersea sss-slam: no GIS outputs: {exc}", file=sys.stderr)
     if args.json:
-        print(json.dumps(summary, indent=1))
+        print_json(summary, indent=1)
     else:
         print(f"{args.file}: {summary['pings_used']} pings, {summary['windows']} windows, "
               f"{len(result.detections)} detections, {len(result.landmarks)} landmarks "

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
+
+from sim.cli.common import print_json
+from sim.jsonsafe import dumps
 
 HELP = "run Monte Carlo variants of a scenario or SLAM experiment in parallel and aggregate metrics"
 
@@ -25,7 +27,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=1, help="parallel workers (default 1: serial)")
     parser.add_argument("--ray", dest="ray_address", nargs="?", const="local", default=None,
                         metavar="ADDRESS", help="run on Ray: a cluster address, or no value for a local Ray")
-    parser.add_argument("--out", default="runs/sweep", help="output directory (resumes if it exists)")
+    parser.add_argument("--out", default="runs/sweep",
+                        help="output directory (resumes if it holds the same plan)")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="--out holds a sweep of another plan: delete its results and start over",
+    )
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 
@@ -48,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     table.to_csv(out / "summary.csv")
     parquet = table.to_parquet(out / "summary.parquet")
     nees = nees_consistency(records)
-    (out / "nees_consistency.json").write_text(json.dumps(nees, indent=1))
+    (out / "nees_consistency.json").write_text(dumps(nees, indent=1))
     summary = {
         "out": str(out),
         "finished_now": len(result.finished),
@@ -61,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
         "nees_consistency": nees,
     }
     if args.json:
-        print(json.dumps(summary, indent=1))
+        print_json(summary, indent=1)
     else:
         print(f"sweep {plan.target}: {len(result.finished)} run(s) now, {len(result.skipped)} resumed, "
               f"{len(result.failed)} failed, {result.wall_s:.1f} s -> {out}")

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
+
+from sim.cli.common import finite_float, print_json, writable_file
 
 HELP = "UWSN-DT map-fusion demo (3000 m field, 1000 nodes, scans at (500,500) and (600,600))"
 
@@ -12,11 +13,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--nodes", type=int, default=1000)
     parser.add_argument(
-        "--sigma", type=float, default=0.5, help="node position noise in a sonar map, m"
+        "--sigma", type=finite_float, default=0.5, help="node position noise in a sonar map, m"
     )
-    parser.add_argument("--altitude", type=float, default=0.0, help="AUV altitude H, m (eq. 4.19)")
     parser.add_argument(
-        "--heading-b", type=float, default=0.0, help="heading of the second scan, deg"
+        "--altitude", type=finite_float, default=0.0, help="AUV altitude H, m (eq. 4.19)"
+    )
+    parser.add_argument(
+        "--heading-b", type=finite_float, default=0.0, help="heading of the second scan, deg"
     )
     parser.add_argument(
         "--plot", default=None, help="write the figure (nodes, scans, Delaunay mesh)"
@@ -29,10 +32,8 @@ def run(args: argparse.Namespace) -> int:
 
     from slam.frontend.uwsn import UWSNConfig, plot_demo, thesis_demo
 
-    try:
-        cfg = UWSNConfig(n_nodes=args.nodes, position_sigma_m=args.sigma, altitude_m=args.altitude)
-    except ValueError as exc:
-        raise SystemExit(f"undersea uwsn: {exc}") from exc
+    writable_file(args.plot, "--plot")
+    cfg = UWSNConfig(n_nodes=args.nodes, position_sigma_m=args.sigma, altitude_m=args.altitude)
     d = thesis_demo(
         np.random.default_rng(args.seed),
         config=cfg,
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         plot_demo(d, args.plot)
         out["plot"] = args.plot
     if args.json:
-        print(json.dumps(out))
+        print_json(out)
     else:
         print(
             f"R = {cfg.comm_range_m:.1f} m; scan {cfg.scan_length_m:.0f} m x {cfg.scan_width_m:.0f} m"

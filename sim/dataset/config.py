@@ -154,9 +154,14 @@ class ShardJob:
 
 
 def settings_hash(cfg: DatasetConfig, scenario_data: dict) -> str:
-    """SHA-256 (24 hex) of the settings and the resolved scenario table."""
+    """SHA-256 (24 hex) of the whole plan: the settings, the resolved scenario table and
+    the code version (sim.version), so a resume never mixes shards of different plans."""
+    from sim.version import code_version
+
     blob = json.dumps(
-        {"settings": cfg.settings(), "scenario": scenario_data}, sort_keys=True, default=str
+        {"settings": cfg.settings(), "scenario": scenario_data, "code": code_version()},
+        sort_keys=True,
+        default=str,
     )
     return hashlib.sha256(blob.encode()).hexdigest()[:24]
 

@@ -280,6 +280,22 @@ def resolve_scenario(cfg: DatasetConfig):
     return data, parse_scenario(data)
 
 
+#: what build_dataset writes into its output directory (and force=True deletes)
+DATASET_ENTRIES = ("shards", "images", "linear", "meta", "annotations.json", "README.md")
+
+
+def clear_dataset(out: Path) -> None:
+    """Delete a dataset's own files and folders in ``out`` (nothing else)."""
+    import shutil
+
+    for name in DATASET_ENTRIES:
+        p = out / name
+        if p.is_dir():
+            shutil.rmtree(p)
+        elif p.exists():
+            p.unlink()
+
+
 def plan_dataset(cfg: DatasetConfig) -> list[ShardJob]:
     """Validate everything that can be checked before simulating and split into shards."""
     from sim.dataset.simulate import frame_period
@@ -304,8 +320,13 @@ def build_dataset(
     ray_address: str | None = None,
     max_retries: int = 1,
     progress: bool = True,
+    force: bool = False,
 ) -> DatasetResult:
     """Export the dataset ``cfg`` into ``out_dir`` (resuming finished shards).
+
+    A resume needs the same plan (settings, scenario and code version: the shards'
+    ``settings_hash``); otherwise ValueError, and ``force=True`` deletes the old dataset's
+    files in ``out_dir`` and starts over.
 
     workers     : 1 runs the shards in this process; K > 1 on K local processes
                   (spawn), or K Ray workers with ``use_ray`` / ``ray_address``.
@@ -317,6 +338,8 @@ def build_dataset(
     jobs = plan_dataset(cfg)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    if force:
+        clear_dataset(out)
     result = DatasetResult(out, cfg.frames, 0, 0)
     todo = []
     for job in jobs:
@@ -325,8 +348,9 @@ def build_dataset(
             rec = json.loads(p.read_text())
             if rec.get("settings_hash") != job.settings_hash:
                 raise ValueError(
-                    f"out = {str(out)!r} holds a dataset made with other settings "
-                    f"({p.name}); allowed: an empty or new directory, or the same settings to resume"
+                    f"out = {str(out)!r} holds a dataset of another plan ({p.name}: other "
+                    "settings, scenario or code version); allowed: the same plan to resume, "
+                    "a new directory, or --force to delete it and start over"
                 )
             result.shards_resumed.append(job.index)
         else:

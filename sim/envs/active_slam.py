@@ -178,6 +178,7 @@ class ActiveSLAMEnv(UnderseaEnv):
         z = float(self.world.seabed_height(xy[None])[0]) + 10.0
         self._reset_world(np.array([xy[0], xy[1], z]), yaw)
         self._sonar_rng = np.random.default_rng(int(rng.integers(2**63)))
+        self.sonar.clear_cache()
         self._new_slam(np.array([xy[0], xy[1], yaw]))
         self._U, self._E, self._mapped, self._n_spurious = self._uncertainty(), 0.0, 0, 0
         self.n_detections = 0

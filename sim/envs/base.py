@@ -100,6 +100,7 @@ class UnderseaEnv(gym.Env):
         self.n_actuators = self.vehicle.n_thrusters
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.n_actuators,), np.float32)
         self._rec = None
+        self._closed = False  # set by close(); step/reset then raise
         self._trail: list[np.ndarray] = []
         self._base_image: np.ndarray | None = None
         self._last_u = np.zeros(self.n_actuators)
@@ -107,9 +108,17 @@ class UnderseaEnv(gym.Env):
         self._nav_pose = np.zeros(3)
 
     # ---------------------------------------------------------------- life cycle --------
+    def _check_open(self) -> None:
+        if getattr(self, "_closed", False):
+            raise RuntimeError(
+                f"{type(self).__name__} is closed; allowed: step/reset before close(), "
+                "or make a new environment with gymnasium.make"
+            )
+
     def _reset_world(self, start_xyz: np.ndarray, yaw: float) -> None:
         from sim.navigation import IMUConfig, NavSuite, NavSuiteConfig
 
+        self._check_open()
         self.world.reset()
         self.vehicle.set_pose(start_xyz, wxyz_from_euler(0.0, 0.0, yaw))
         self.vehicle.set_thruster_commands(np.zeros(self.n_actuators))
@@ -149,6 +158,7 @@ class UnderseaEnv(gym.Env):
 
     def _advance(self, u: np.ndarray):
         """Apply commands, step physics one control step, poll nav, update the nav pose."""
+        self._check_open()
         self.vehicle.set_thruster_commands(u)
         self._last_u = u
         self.world.step(self.frame_skip)
@@ -306,4 +316,5 @@ class UnderseaEnv(gym.Env):
 
             L.close_recording(self._rec)
             self._rec = None
+        self._closed = True
         super().close()

@@ -154,6 +154,7 @@ class SonarSurveyEnv(UnderseaEnv):
         yaw = into + float(rng.uniform(-np.pi / 4, np.pi / 4))
         self._reset_world(np.array([p[0], p[1], -(self.water_depth - 10.0)]), yaw)
         self._sonar_rng = np.random.default_rng(int(rng.integers(2**63)))
+        self.sonar.clear_cache()
         self.covered[:] = False
         self._wf[:] = 0.0
         self._done_bonus = False

@@ -14,13 +14,13 @@ import numpy as np
 
 from sim.guidance import Mission, hold, lawnmower, loop, straight_line
 from sim.scenario.schema import Scenario, SonarSpec, VehicleSpec
+from sim.scenario.seabed_check import seabed_spec
 from sim.sonar import ForwardLookingSonar, MSISSonar, SideScanSonar, preset
 from sim.viz.rerun_log import class_id
 from sim.world import (
     OBJECT_CLASSES,
     CurrentSpec,
     ObjectSpec,
-    SeabedSpec,
     SonarWater,
     Water,
     WorldSpec,
@@ -40,16 +40,7 @@ from slam.pipeline import (
 def world_spec_from_scenario(scn: Scenario) -> WorldSpec:
     """sim.world.WorldSpec for a scenario (seabed, water, current, objects, vehicles)."""
     w = scn.world
-    size = max(w.size_m)
-    res = float(np.clip(size / 400.0, 0.25, 2.0))
-    seabed = SeabedSpec(
-        kind=w.seabed,
-        size_xy=w.size_m,
-        resolution=res,
-        depth=w.depth_m,
-        seed=scn.world_seed,
-        grid_path=w.grid_path or None,
-    )
+    seabed = seabed_spec(w, scn.world_seed)
     water = Water.from_ts(w.water.temperature_c, w.water.salinity_psu, reference_depth_m=w.depth_m)
     cur = CurrentSpec(
         velocity=w.water.current_mps,

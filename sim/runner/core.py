@@ -10,18 +10,16 @@ and the real-time factor) depends only on the scenario and the seed.
 
 from __future__ import annotations
 
-import os
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from sim.runner.figures import write_figures
 from sim.runner.log import RerunObserver
-from sim.runner.output import RunDirectory
+from sim.runner.output import RunDirectory, discard_partial_on_error
+from sim.runner.progress import make_progress
 from sim.runner.schedule import ScenarioRun
 from sim.runner.score import vehicle_metrics
 from sim.scenario.schema import Scenario
@@ -55,12 +53,7 @@ def _fmt(x) -> str:
     return "n/a" if x is None else f"{x:.3g}"
 
 
-def _progress_enabled(progress: bool | None) -> bool:
-    if progress is not None:
-        return progress
-    return sys.stderr.isatty() and os.environ.get("CI", "").lower() not in ("1", "true", "yes")
-
-
+@discard_partial_on_error
 def run_scenario(
     scenario: Scenario,
     out_dir: str | Path,
@@ -71,8 +64,9 @@ def run_scenario(
 ) -> RunResult:
     """Run a validated scenario headless and write its outputs to ``out_dir``.
 
-    progress: tqdm bar with sim time, real-time factor and ETA (default: on a TTY unless
-    CI=true). stop_flag: optional callable polled every tick; True stops the run as
+    progress: tqdm bar with sim time, real-time factor and ETA on a terminal, a plain
+    line every 5 s otherwise (default); False for none (sim.runner.progress).
+    stop_flag: optional callable polled every tick; True stops the run as
     Ctrl-C does (used by tests). Returns the metrics and whether the run completed.
     """
     out = RunDirectory(out_dir, overwrite=overwrite)
@@ -90,25 +84,8 @@ def run_scenario(
     run = ScenarioRun(scenario, observers)
     for o in observers:
         o.on_start(run)
-    bar = None
-    cb = None
-    if _progress_enabled(progress):
-        bar = tqdm(
-            total=round(scenario.duration_s, 1),
-            unit="sim s",
-            desc=scenario.name,
-            dynamic_ncols=True,
-            bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining} ETA{postfix}]",
-        )
-        last = [0.0]
-
-        def cb(t: float) -> None:
-            if t - last[0] >= 1.0 or t >= scenario.duration_s - 1e-6:
-                bar.update(round(t - last[0], 1))
-                last[0] = round(t, 1)
-                el = time.perf_counter() - wall0
-                bar.set_postfix_str(f"RTF {t / max(el, 1e-9):.2f}")
-
+    bar = make_progress(scenario.name, scenario.duration_s, progress)
+    cb = None if bar is None else bar.update
     complete = False
     error: BaseException | None = None
     try:

@@ -4,42 +4,95 @@ A run writes into a hidden sibling ``.<name>.partial-<pid>`` and renames it to `
 only at the end (complete, or interrupted with ``metrics.json`` saying ``"complete":
 false``). A crash leaves only the ``.partial`` directory, which no reader mistakes for a
 finished run. Rename within one parent directory is atomic on POSIX.
+
+Nothing partial outlives its process: an exception inside a function decorated with
+:func:`discard_partial_on_error` removes the staging directories it opened and did not
+finalize, and every new ``RunDirectory`` removes the ``.partial-<pid>`` / ``.old-<pid>``
+siblings of its ``--out`` whose process is gone (SIGKILL, power loss).
 """
 
 from __future__ import annotations
 
-import json
-import math
+import functools
 import os
+import re
 import shutil
+import threading
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
-import numpy as np
+from sim.jsonsafe import dumps
 
 
 class OutputExistsError(FileExistsError):
     """The output directory exists and overwrite was not asked for."""
 
 
-def _jsonable(o: Any) -> Any:
-    if isinstance(o, dict):
-        return {str(k): _jsonable(v) for k, v in o.items()}
-    if isinstance(o, list | tuple):
-        return [_jsonable(v) for v in o]
-    if isinstance(o, np.ndarray):
-        return _jsonable(o.tolist())
-    if isinstance(o, np.integer | np.bool_):
-        return o.item()
-    if isinstance(o, float | np.floating):
-        f = float(o)
-        return f if math.isfinite(f) else None  # JSON has no NaN; null means "not available"
-    return o
+class OutputPathError(OSError):
+    """The output directory cannot be created or written (the message names the path)."""
+
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+_open = threading.local()  # RunDirectory objects created and not yet finalized, this thread
+
+
+def _opened() -> list[RunDirectory]:
+    if not hasattr(_open, "dirs"):
+        _open.dirs = []
+    return _open.dirs
+
+
+def pid_alive(pid: int) -> bool:
+    """True if a process with this id exists (on this host)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def remove_stale_partials(final: Path) -> list[Path]:
+    """Remove ``.<name>.partial-<pid>`` / ``.<name>.old-<pid>`` siblings of ``final`` whose
+    process no longer runs; returns the removed paths."""
+    pattern = re.compile(rf"^\.{re.escape(final.name)}\.(partial|old)-(\d+)$")
+    removed = []
+    if not final.parent.is_dir():
+        return removed
+    for p in final.parent.iterdir():
+        m = pattern.match(p.name)
+        if m and int(m.group(2)) != os.getpid() and not pid_alive(int(m.group(2))):
+            shutil.rmtree(p, ignore_errors=True)
+            removed.append(p)
+    return removed
+
+
+def discard_partial_on_error(fn: _F) -> _F:
+    """Decorator: if ``fn`` raises, remove the staging directories of the RunDirectory
+    objects it created and did not finalize (then re-raise)."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        before = len(_opened())
+        try:
+            return fn(*args, **kwargs)
+        except BaseException:
+            for d in _opened()[before:]:
+                d.discard()
+            raise
+        finally:
+            del _opened()[before:]
+
+    return wrapper  # type: ignore[return-value]
 
 
 def dumps_canonical(obj: Any) -> str:
     """Deterministic JSON: sorted keys, NaN/inf as null, floats as Python repr."""
-    return json.dumps(_jsonable(obj), sort_keys=True, indent=2, allow_nan=False) + "\n"
+    return dumps(obj, sort_keys=True, indent=2) + "\n"
 
 
 class RunDirectory:
@@ -56,13 +109,26 @@ class RunDirectory:
                 f"output directory {str(self.final)!r} exists and is not empty; "
                 "allowed: a new directory, or pass --overwrite"
             )
-        self.final.parent.mkdir(parents=True, exist_ok=True)
         self.staging = self.final.parent / f".{self.final.name}.partial-{os.getpid()}"
-        if self.staging.exists():
-            shutil.rmtree(self.staging)
-        self.staging.mkdir()
+        try:
+            self.final.parent.mkdir(parents=True, exist_ok=True)
+            remove_stale_partials(self.final)
+            if self.staging.exists():
+                shutil.rmtree(self.staging)
+            self.staging.mkdir()
+        except OSError as exc:
+            raise OutputPathError(
+                f"output directory {str(self.final)!r}: cannot write there "
+                f"({exc.strerror or exc}); allowed: a path in a writable directory"
+            ) from exc
         self.overwrite = overwrite
         self.finalized = False
+        _opened().append(self)
+
+    def discard(self) -> None:
+        """Remove the staging directory (nothing of this run is kept) unless finalized."""
+        if not self.finalized:
+            shutil.rmtree(self.staging, ignore_errors=True)
 
     def path(self, name: str) -> Path:
         return self.staging / name

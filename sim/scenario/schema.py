@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from sim.scenario.seabed_check import check_scenario_seabed
 from sim.sonar.config import PRESETS as _SONAR_PRESET_CONFIGS
 from sim.sonar.config import SSSConfig
 from sim.sonar.config import preset as sonar_preset
@@ -620,6 +621,8 @@ def parse_scenario(data: Mapping[str, Any]) -> Scenario:
         figures=_bool(o.get("figures", True), "outputs.figures"),
         log_sonar_every=_int(o.get("log_sonar_every", 1), "outputs.log_sonar_every", 1, 10000),
     )
+    seed = _int(d.get("seed", 0), "seed", lo=0)
+    check_scenario_seabed(world, vehicles, seed if world.seed is None else world.seed)
     control_dt = _num(d.get("control_dt", 0.05), "control_dt", 0.001, 1.0)
     physics_dt = _num(d.get("physics_dt", 0.01), "physics_dt", 0.0001, 0.05)
     ratio = control_dt / physics_dt
@@ -628,7 +631,7 @@ def parse_scenario(data: Mapping[str, Any]) -> Scenario:
     return Scenario(
         name=_str(d.get("name", "unnamed"), "name"),
         description=_str(d.get("description", ""), "description"),
-        seed=_int(d.get("seed", 0), "seed", lo=0),
+        seed=seed,
         duration_s=_num(d.get("duration_s", 60.0), "duration_s", 0.0, 1e6, lo_open=True),
         control_dt=control_dt,
         world=world,
@@ -706,6 +709,13 @@ def load_scenario_dict(name_or_path: str | Path) -> dict:
             return tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"scenario file {str(p)!r}: invalid TOML: {exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(
+            f"scenario file {str(p)!r}: byte {exc.start} is not UTF-8 ({exc.reason}); "
+            "allowed: a UTF-8 text file (TOML requires UTF-8)"
+        ) from exc
+    except OSError as exc:
+        raise ScenarioError(f"scenario file {str(p)!r}: cannot read it ({exc.strerror})") from exc
 
 
 def load_scenario(name_or_path: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:

@@ -168,6 +168,11 @@ class SideScanSonar:
         e = e[e >= self.theta_lo]
         return 0.5 * (e[1:] + e[:-1]), np.diff(e)
 
+    def clear_cache(self) -> None:
+        """Forget the cached ray fan: the next ping starts as a new sonar's first does
+        (an environment reset must not depend on the previous episode)."""
+        self._fan_cache = None
+
     def ray_fan(self, altitude: float) -> RayFan:
         """Both sides' rays for a ping at ``altitude`` (m; NaN: no bottom found). The fan
         is rebuilt only when the altitude moved by two bins (footprints adapt to the actual

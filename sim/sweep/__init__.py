@@ -5,9 +5,10 @@ resume from finished runs, and aggregate metrics with confidence intervals.
 
 from sim.sweep.aggregate import SweepTable, aggregate_runs, nees_consistency
 from sim.sweep.plan import RunSpec, SweepPlan, parse_vary
-from sim.sweep.runner import SweepResult, run_sweep
+from sim.sweep.runner import PlanMismatchError, SweepResult, run_sweep
 
 __all__ = [
+    "PlanMismatchError",
     "RunSpec",
     "SweepPlan",
     "SweepResult",

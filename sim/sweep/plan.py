@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
 import re
@@ -93,3 +94,29 @@ class SweepPlan:
             for combo in combos
             for i in range(self.runs)
         ]
+
+    def to_dict(self) -> dict:
+        """The plan as written to ``OUT/plan.json`` (without its hash)."""
+        return {
+            "target": self.target,
+            "runs": self.runs,
+            "vary": self.vary,
+            "base_seed": self.base_seed,
+        }
+
+    def plan_hash(self, target_content: object = None, code: str | None = None) -> str:
+        """SHA-256 (24 hex) of the whole plan: target (and ``target_content``, e.g. the
+        decoded scenario file), every run's variant and seed, and the code version."""
+        from sim.version import code_version
+
+        blob = json.dumps(
+            {
+                "target": self.target,
+                "target_content": target_content,
+                "runs": [[list(map(list, s.variant)), s.seed] for s in self.specs()],
+                "code": code_version() if code is None else code,
+            },
+            sort_keys=True,
+            default=str,
+        )
+        return hashlib.sha256(blob.encode()).hexdigest()[:24]

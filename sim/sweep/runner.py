@@ -105,8 +105,15 @@ def run_sweep(
     use_ray: bool = False,
     max_retries: int = 1,
     progress: bool = True,
+    force: bool = False,
 ) -> SweepResult:
     """Run every spec of ``plan`` not already finished in ``out_dir``.
+
+    Resuming needs the same plan: ``OUT/plan.json`` holds the hash of the target (with
+    its scenario file's content), every variant and seed, and the code version; another
+    plan in ``out_dir`` raises :class:`PlanMismatchError` before anything runs, and
+    ``force=True`` deletes that sweep's files and starts over. Every variant is validated
+    (scenario overrides parsed) before any run starts.
 
     workers     : 1 runs serially in this process; K > 1 uses K local processes (spawn),
                   or K Ray workers with ``use_ray``/``ray_address``.
@@ -114,18 +121,17 @@ def run_sweep(
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "plan.json").write_text(
-        json.dumps(
-            {"target": plan.target, "runs": plan.runs, "vary": plan.vary, "base_seed": plan.base_seed},
-            indent=1,
-        )
-    )
-    # fail fast on an unknown target, before any worker starts
-    from sim.sweep.tasks import resolve_task
+    from sim.sweep.tasks import resolve_task, target_content, validate_variant
 
+    # fail fast on an unknown target or a bad variant, before anything is written
     resolve_task(plan.target)
+    for variant in dict.fromkeys(s.variant for s in plan.specs()):
+        validate_variant(plan.target, dict(variant))
+    out = Path(out_dir)
+    digest = plan.plan_hash(target_content(plan.target))
+    check_plan(out, digest, force)
+    out.mkdir(parents=True, exist_ok=True)
+    _atomic_write_json(out / "plan.json", {**plan.to_dict(), "plan_hash": digest})
     result = SweepResult(out_dir=out)
     todo = []
     for spec in plan.specs():
@@ -153,6 +159,51 @@ def run_sweep(
     bar.close()
     result.wall_s = time.perf_counter() - t0
     return result
+
+
+class PlanMismatchError(ValueError):
+    """``--out`` holds a sweep of another plan (the message says how to proceed)."""
+
+
+#: what run_sweep writes into its output directory (and force=True deletes)
+SWEEP_ENTRIES = ("plan.json", "runs", "failed", "artifacts")
+
+
+def check_plan(out: Path, digest: str, force: bool) -> None:
+    """Raise PlanMismatchError if ``out`` holds results of a plan with another hash;
+    with ``force`` delete that sweep's files instead."""
+    import shutil
+
+    plan_file = out / "plan.json"
+    has_results = any((out / d).is_dir() and any((out / d).iterdir()) for d in ("runs", "failed"))
+    if not plan_file.exists() and not has_results:
+        return
+    try:
+        old = json.loads(plan_file.read_text()) if plan_file.exists() else {}
+    except (OSError, ValueError):
+        old = {}
+    if old.get("plan_hash") == digest:
+        return
+    if force:
+        for name in SWEEP_ENTRIES:
+            p = out / name
+            if p.is_dir():
+                shutil.rmtree(p)
+            elif p.exists():
+                p.unlink()
+        return
+    what = (
+        f"target {old.get('target')!r}, runs {old.get('runs')}, vary {old.get('vary')}, "
+        f"base seed {old.get('base_seed')}"
+        if old
+        else "results without a readable plan.json"
+    )
+    raise PlanMismatchError(
+        f"--out {str(out)!r} holds another sweep ({what}; plan hash "
+        f"{old.get('plan_hash', 'none')} != {digest}: target, variants, seeds or code "
+        "version differ); allowed: the same plan to resume, a new --out, or --force to "
+        "delete that sweep and start over"
+    )
 
 
 def _failure_record(target: str, spec: RunSpec, error: str) -> dict:

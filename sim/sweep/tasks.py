@@ -91,3 +91,31 @@ def resolve_task(target: str) -> Task:
             "(see `undersea scenarios`), a scenario .toml path, or "
             "slam:dense-loop | slam:line | slam:segmentation-loop"
         ) from exc
+
+
+def target_content(target: str):
+    """What a sweep's plan hash covers besides the target's name: the decoded scenario
+    file of a scenario target (editing the file changes the plan), None for slam:*."""
+    if target.startswith("slam:"):
+        return None
+    from sim.scenario import load_scenario_dict
+
+    return load_scenario_dict(target)
+
+
+def validate_variant(target: str, params: dict) -> None:
+    """Raise ValueError naming the bad key or value of one variant, before any run."""
+    if target.startswith("slam:"):
+        unknown = [k for k in params if k not in ("filter", "dt", "loops") and not k.startswith("est.")]
+        if unknown:
+            raise ValueError(
+                f"--vary {unknown[0]!r}: unknown parameter of {target}; "
+                "allowed: filter, dt, loops, est.<name>"
+            )
+        return
+    from sim.scenario import ScenarioError, load_scenario
+
+    try:
+        load_scenario(target, overrides=params)
+    except ScenarioError as exc:
+        raise ValueError(f"--vary {', '.join(f'{k}={v}' for k, v in params.items())}: {exc}") from exc

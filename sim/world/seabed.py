@@ -161,7 +161,9 @@ def load_depth_grid(path: str | Path) -> np.ndarray:
     return np.load(p, allow_pickle=False)
 
 
-def _check_grid(grid: np.ndarray) -> np.ndarray:
+def check_depth_grid(grid: np.ndarray) -> np.ndarray:
+    """The grid as float (ny, nx) depths, m positive down; ValueError naming the problem
+    (not 2-D, fewer than 2 rows or columns, non-finite or non-positive depths)."""
     g = np.asarray(grid, dtype=float)
     if g.ndim != 2 or min(g.shape) < 2:
         raise ValueError(
@@ -187,7 +189,7 @@ def height_grid(spec: SeabedSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     cx, cy = (float(v) for v in spec.center_xy)
     r = float(spec.resolution)
     if spec.kind == "grid":
-        g = _check_grid(spec.grid if spec.grid is not None else load_depth_grid(spec.grid_path))
+        g = check_depth_grid(spec.grid if spec.grid is not None else load_depth_grid(spec.grid_path))
         ny, nx = g.shape
         x = cx + (np.arange(nx) - (nx - 1) / 2) * r
         y = cy + (np.arange(ny) - (ny - 1) / 2) * r

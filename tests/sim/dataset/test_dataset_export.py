@@ -295,6 +295,25 @@ def test_lost_shard_is_redone_and_finished_shards_are_kept(scene, serial, tmp_pa
         build_dataset(_cfg(scene, tile_pings=8), d, progress=False)
 
 
+def test_other_code_version_is_another_plan_and_force_starts_over(
+    scene, serial, tmp_path, monkeypatch
+):
+    """Issue 15: resume is keyed on the whole plan, code version included; --force
+    deletes the old dataset's files and builds the new plan from scratch."""
+    import sim.version
+
+    d = tmp_path / "ds"
+    shutil.copytree(serial, d)
+    monkeypatch.setattr(sim.version, "code_version", lambda: "0.0.0+gother")
+    with pytest.raises(ValueError, match="--force"):
+        build_dataset(_cfg(scene), d, progress=False)
+    assert _files(d) == _files(serial)  # nothing touched
+    monkeypatch.undo()
+    res = build_dataset(_cfg(scene, frames=1, shard_frames=1), d, progress=False, force=True)
+    assert res.shards_resumed == [] and res.shards_done == [0]
+    assert sorted(p.name for p in (d / "shards").iterdir()) == ["shard_0000.json"]
+
+
 def test_bad_input_clear_errors(scene, tmp_path, capsys):
     with pytest.raises(ValueError, match=r"scenario 'no-such-scenario'.*allowed"):
         build_dataset(DatasetConfig("no-such-scenario", frames=2), tmp_path)
@@ -398,6 +417,9 @@ def test_min_objects_keeps_only_frames_with_objects(scene, tmp_path):
     assert coco["images"][0]["time_s"] > 2.0
 
 
+# slow: the same kill-and-resubmit of sim.parallel.run_local_pool is tested in CI by the
+# sweep's test_killed_worker_loses_no_finished_run
+@pytest.mark.slow
 def test_killed_worker_process_shard_is_redone_in_the_same_run(scene, serial, tmp_path):
     """SIGKILL one of 2 local worker processes once the first shard is on disk: the export
     still finishes in the same call (the lost shard runs again on a fresh pool) and writes

@@ -68,3 +68,33 @@ def test_active_slam_layout_and_bad_args():
     e.reset(seed=0, options={"layout_seed": 2})
     assert e.unwrapped.truth_xy.shape == (3, 2) and not np.allclose(a, e.unwrapped.truth_xy)
     e.close()
+
+
+def _waterfalls(env, seed: int, steps: int = 12) -> np.ndarray:
+    env.reset(seed=seed)
+    u = np.array([0.8] + [0.0] * (env.action_space.shape[0] - 1), np.float32)
+    return np.array([env.step(u)[0]["waterfall"] for _ in range(steps)])
+
+
+def test_reset_after_another_seed_equals_a_fresh_env():
+    """Issue 15: reset(seed=7) after an episode of seed 3 gave another waterfall than a
+    fresh env's reset(seed=7) (the side-scan ray-fan cache survived the reset)."""
+    fresh = gym.make("undersea/SonarSurvey-v0")
+    expected = _waterfalls(fresh, 7)
+    fresh.close()
+    used = gym.make("undersea/SonarSurvey-v0")
+    _waterfalls(used, 3, steps=30)
+    got = _waterfalls(used, 7)
+    used.close()
+    assert np.array_equal(got, expected)
+
+
+@pytest.mark.parametrize("env_id", ["undersea/SonarSurvey-v0", "undersea/WaypointNav-v0"])
+def test_step_or_reset_after_close_raises(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    env.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        env.step(np.zeros(env.action_space.shape, np.float32))
+    with pytest.raises(RuntimeError, match="closed"):
+        env.reset(seed=0)

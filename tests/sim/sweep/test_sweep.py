@@ -49,22 +49,58 @@ def test_two_worker_sweep_equals_serial_run_by_run(tmp_path):
 
 def test_resume_skips_finished_runs(tmp_path):
     plan = SweepPlan(TARGET, runs=2, vary=VARY)
-    first = run_sweep(SweepPlan(TARGET, runs=1, vary=VARY), tmp_path, progress=False)
-    assert first.finished == ["loops=1__seed1"]
+    first = run_sweep(plan, tmp_path, progress=False)
+    assert first.finished == ["loops=1__seed1", "loops=1__seed2"]
     before = (tmp_path / "runs" / "loops=1__seed1.json").read_text()
+    (tmp_path / "runs" / "loops=1__seed2.json").unlink()  # as if killed before run 2 ended
     second = run_sweep(plan, tmp_path, progress=False)
     assert second.skipped == ["loops=1__seed1"] and second.finished == ["loops=1__seed2"]
     assert (tmp_path / "runs" / "loops=1__seed1.json").read_text() == before
 
 
+def test_resume_into_another_plan_stops_and_force_starts_over(tmp_path):
+    """Issue 15: a second sweep with another target, variants or seeds into the same --out
+    must not adopt the first sweep's runs; --force deletes them and starts over."""
+    from sim.sweep import PlanMismatchError
+
+    first = SweepPlan(TARGET, runs=1, vary=VARY)
+    run_sweep(first, tmp_path, progress=False)
+    plan_before = (tmp_path / "plan.json").read_text()
+    for other in (
+        SweepPlan("slam:line", runs=1, vary=VARY),  # another target
+        SweepPlan(TARGET, runs=1, vary={"loops": [1], "filter": ["aekf"]}),  # variants
+        SweepPlan(TARGET, runs=1, vary=VARY, base_seed=2),  # seeds
+    ):
+        with pytest.raises(PlanMismatchError, match="--force"):
+            run_sweep(other, tmp_path, progress=False)
+        assert (tmp_path / "plan.json").read_text() == plan_before
+    # a new code version is another plan too
+    assert first.plan_hash(code="0.1.0+gaaaa") != first.plan_hash(code="0.1.0+gbbbb")
+    other = SweepPlan(TARGET, runs=1, vary=VARY, base_seed=2)
+    res = run_sweep(other, tmp_path, progress=False, force=True)
+    assert res.skipped == [] and res.finished == ["loops=1__seed2"]
+    assert [r["run_id"] for r in load_records(tmp_path)] == ["loops=1__seed2"]
+    assert json.loads((tmp_path / "plan.json").read_text())["base_seed"] == 2
+
+
 def test_failed_run_is_recorded_with_seed_and_error(tmp_path):
-    plan = SweepPlan(TARGET, runs=1, vary={"loops": [1], "bogus": [1]}, base_seed=7)
+    # est.* keys go to the estimator, which rejects an unknown one only when the run starts
+    plan = SweepPlan(TARGET, runs=1, vary={"loops": [1], "est.bogus_gate": [1.0]}, base_seed=7)
     res = run_sweep(plan, tmp_path, progress=False)
     assert len(res.failed) == 1
     rec = json.loads(next((tmp_path / "failed").glob("*.json")).read_text())
     assert rec["seed"] == 7 and rec["status"] == "failed"
-    assert "unknown slam sweep parameter" in rec["error"] and "Traceback" in rec["traceback"]
+    assert "bogus_gate" in rec["error"] and "Traceback" in rec["traceback"]
     assert load_records(tmp_path) == []
+
+
+def test_bad_variant_stops_before_anything_runs(tmp_path):
+    """Issue 15: `sweep --vary bogus.key=1` named the key only in a failed run record."""
+    with pytest.raises(ValueError, match="bogus"):
+        run_sweep(SweepPlan(TARGET, runs=1, vary={"bogus": [1]}), tmp_path / "a")
+    with pytest.raises(ValueError, match="'bogus'"):
+        run_sweep(SweepPlan("shipwreck-survey", runs=1, vary={"bogus.key": [1]}), tmp_path / "b")
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 
 
 def test_unknown_target_names_allowed_forms(tmp_path):
@@ -145,8 +181,8 @@ def test_ray_local_two_workers_equals_serial(tmp_path):
 
 def test_scenario_sweep_with_override_matches_a_direct_run(tmp_path):
     """A sweep run of a scenario equals the scenario runner called directly with the same
-    overrides and seed (metrics except wall-clock timing), and a bad override is a
-    recorded failure naming the field."""
+    overrides and seed (metrics except wall-clock timing), and a bad override stops the
+    sweep before it runs, naming the field."""
     from sim.runner import run_scenario
     from sim.scenario import load_scenario
 
@@ -159,6 +195,7 @@ def test_scenario_sweep_with_override_matches_a_direct_run(tmp_path):
     for m in (rec["metrics"], direct):
         m.pop("timing"), m.pop("objects", None)
     assert rec["metrics"] == json.loads(json.dumps(direct))
-    bad = run_sweep(SweepPlan("shipwreck-survey", runs=1, vary={"duration_s": [-1.0]}),
-                    tmp_path / "bad", progress=False)
-    assert "duration_s" in next(iter(bad.failed.values()))
+    with pytest.raises(ValueError, match="duration_s"):
+        run_sweep(SweepPlan("shipwreck-survey", runs=1, vary={"duration_s": [-1.0]}),
+                  tmp_path / "bad", progress=False)
+    assert not (tmp_path / "bad").exists()
