@@ -88,7 +88,7 @@ class ThrusterBank:
         self.owner = np.array(
             [i for i, vs in enumerate(specs_per_vehicle) for _ in vs], dtype=np.intp
         )
-        self.offsets = np.cumsum([0] + [len(vs) for vs in specs_per_vehicle])
+        self.offsets = np.cumsum([0] + [len(vs) for vs in specs_per_vehicle]).astype(np.intp)
         self.is_fin = np.array([s.kind == "fin" for s in specs], dtype=bool)
         self.any_fin = bool(self.is_fin.any())
         self.f_fwd = np.array([s.max_forward for s in specs])
@@ -110,6 +110,12 @@ class ThrusterBank:
         self._fin_cols = self.columns[self._fin_idx]
         self._fin_gain = self.f_fwd[self._fin_idx]
         self._fin_lift = self.lift_gain[self._fin_idx]
+        # the (k, 10) channel table of sim.physics_kernel: column | F_fwd | F_rev | lift | fin
+        self.table = np.ascontiguousarray(
+            np.column_stack(
+                [self.columns, self.f_fwd, self.f_rev, self.lift_gain, self.is_fin.astype(float)]
+            ).reshape(self.n, 10)
+        )
 
     def set_dt(self, dt: float) -> None:
         self.decay = np.exp(-float(dt) / self.tc)

@@ -25,6 +25,7 @@ import numpy as np
 
 from sim.frames import wxyz_from_euler
 from sim.hydrodynamics import HydroBatch, HydroParams
+from sim.physics_kernel import MJ_STEP1, MJ_STEP2, step_world
 from sim.thrusters import ThrusterBank
 from sim.world.currents import CurrentField, CurrentSpec
 from sim.world.objects import (
@@ -155,6 +156,8 @@ class World:
     _external: np.ndarray | None = None
     _bid: np.ndarray | slice | None = None
     _dofs: np.ndarray | slice | None = None
+    _body_ids: np.ndarray | None = None  # (N,) vehicle root bodies (for the compiled step)
+    _dof0: np.ndarray | None = None  # (N,) first dof of each vehicle's free joint
     _init_qpos: np.ndarray | None = None
     _static_cache: tuple | None = None
 
@@ -198,17 +201,20 @@ class World:
         )
 
     def step(self, n: int = 1) -> None:
-        """Advance n physics steps (hydrodynamics + thrusters + mj_step each)."""
+        """Advance n physics steps (hydrodynamics + thrusters + mj_step each), all n in one
+        compiled call (``sim.physics_kernel.step_world``)."""
         m, d = self.model, self.data
         if not self.vehicles:
             mujoco.mj_step(m, d, nstep=int(n))
         else:
-            f = self._apply_forces
-            step1, step2 = mujoco.mj_step1, mujoco.mj_step2
-            for _ in range(int(n)):
-                step1(m, d)
-                f()
-                step2(m, d)
+            th, cf = self.thrusters, self.current
+            step_world(
+                MJ_STEP1, MJ_STEP2, m._address, d._address, int(n), d.time, m.opt.timestep,
+                d.xmat, d.xpos, d.qvel, d.xfrc_applied, self._body_ids, self._dof0,
+                self._external, self.hydro.packed, th.table, th.offsets, th.command,
+                th.level, th.force, th.decay, cf.uniform, cf.modes, cf.varying,
+                self.hydro.last_accel,
+            )  # fmt: skip
         if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.isfinite(d.qpos).all():
             raise FloatingPointError(
                 f"physics diverged at t = {d.time:.3f} s (MuJoCo bad qacc / non-finite state); "
@@ -544,6 +550,8 @@ def build_world(spec: WorldSpec) -> World:
         world.hydro = HydroBatch(params, water.density, water.gravity, water.surface_z)
         adr = np.array([model.jnt_dofadr[model.body_jntadr[b]] for b in bids])
         world._dofs = adr[:, None] + np.arange(6)[None, :]
+        world._body_ids = np.array(bids, dtype=np.intp)
+        world._dof0 = adr.astype(np.intp)
         # vehicles are attached last, one body and one free joint each: use slices (views,
         # cheaper than fancy indexing every step) when their ids are contiguous
         if np.array_equal(world._bid, np.arange(bids[0], bids[0] + len(bids))):
