@@ -241,17 +241,15 @@ class HydroBatch:
 
         cur = np.zeros((n, 3)) if current_world is None else arr(current_world, (n, 3))
         if thrusters is None:
-            table, offsets = np.zeros((0, 10)), np.zeros(n + 1, dtype=np.intp)
-            cmd = lvl = frc = dec = np.zeros(0)
+            table, offsets, state = np.zeros((0, 10)), np.zeros(n + 1, np.intp), np.zeros((4, 0))
         else:
-            table, offsets = thrusters.table, thrusters.offsets
-            cmd, lvl, frc, dec = thrusters.command, thrusters.level, thrusters.force, thrusters.decay
+            table, offsets, state = thrusters.table, thrusters.offsets, thrusters.state
         out = np.empty((n, 6))
         acc = np.empty((n, 6))
         wrench_batch(
             arr(rot, (n, 3, 3)), arr(pos, (n, 3)), arr(vel_world, (n, 3)),
             arr(omega_body, (n, 3)), cur, arr(tau, (n, 6)), self.packed, table, offsets,
-            cmd, lvl, frc, dec, out, acc,
+            state, out, acc,
         )  # fmt: skip
         self.last_accel = acc
         return out

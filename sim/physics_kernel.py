@@ -100,10 +100,11 @@ def _current(pos, t, cu, C, out):
 
 
 @numba.njit(cache=True)
-def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, command, level, force, decay, f_out, acc):
+def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, S, f_out, acc):
     """One vehicle: body->world R (3,3), CG pos (3,), world velocity vw (3,), body angular
     velocity w (3,), world current cur (3,), external body wrench tau (6,), parameters p
-    (37,), its thruster channels T[lo:hi]. Advances their lag (level, force in place);
+    (37,), its thruster channels T[lo:hi] with their state S (4, k) rows command, level,
+    force, decay (``ThrusterBank.state``). Advances the lag (level, force in place);
     writes the world-frame xfrc_applied row f_out (6,) and ν̇* into acc (6,)."""
     v = np.empty(3)
     vr = np.empty(3)
@@ -118,9 +119,9 @@ def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, command, level, force, decay
     tt = np.zeros(6)
     au = abs(vr[0])
     for ch in range(lo, hi):
-        c = command[ch]
-        lv = c + (level[ch] - c) * decay[ch]
-        level[ch] = lv
+        c = S[0, ch]
+        lv = c + (S[1, ch] - c) * S[3, ch]
+        S[1, ch] = lv
         if T[ch, 9] != 0.0:
             lim = FIN_STALL_RAD * au
             fc = 0.0
@@ -130,7 +131,7 @@ def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, command, level, force, decay
             fch = au * (T[ch, 6] * lv * vr[0] - T[ch, 8] * fc)
         else:
             fch = lv * abs(lv) * (T[ch, 6] if lv >= 0.0 else T[ch, 7])
-        force[ch] = fch
+        S[2, ch] = fch
         for j in range(6):
             tt[j] += T[ch, j] * fch
     # gravity and buoyancy (buoyancy scaled by the submerged fraction of the height)
@@ -166,35 +167,34 @@ def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, command, level, force, decay
 
 
 @numba.njit(cache=True)
-def wrench_batch(
-    rot, pos, vel, omega, cur, tau, P, T, offsets, command, level, force, decay, out, acc
-):
+def wrench_batch(rot, pos, vel, omega, cur, tau, P, T, offsets, S, out, acc):
     """``_vehicle`` for stacked states: rot (N,3,3), pos/vel/omega/cur (N,3), tau (N,6);
     out, acc (N,6) written. The numpy-facing entry (``HydroBatch.body_wrench``)."""
     for i in range(P.shape[0]):
         _vehicle(
             rot[i], pos[i], vel[i], omega[i], cur[i], tau[i], P[i], T,
-            offsets[i], offsets[i + 1], command, level, force, decay, out[i], acc[i],
+            offsets[i], offsets[i + 1], S, out[i], acc[i],
         )  # fmt: skip
 
 
 @numba.njit(cache=True)
-def step_world(
-    fn1, fn2, m_addr, d_addr, n, t0, dt, xmat, xpos, qvel, xfrc, bid, dof,
-    tau, P, T, offsets, command, level, force, decay, cu, C, varying, acc,
-):  # fmt: skip
+def step_world(addr, n, t0, dt, xmat, xpos, qvel, xfrc, ids, tau, P, T, offsets, S, cu, C, acc):
     """n MuJoCo steps with the forces of all N vehicles applied between mj_step1 and
-    mj_step2. xmat (nbody,9), xpos (nbody,3), qvel (nv,), xfrc (nbody,6) are the MjData
-    arrays (views); fn1, fn2 the addresses of mj_step1, mj_step2 (``MJ_STEP1``,
-    ``MJ_STEP2``: arguments, not globals, so the disk cache holds no address); bid (N,) body ids, dof (N,) first dof of each vehicle's free joint;
-    t0 = d.time, dt the model timestep. Returns the time after the steps."""
+    mj_step2. addr (4,) int: the addresses of mj_step1 and mj_step2 (``MJ_STEP1``,
+    ``MJ_STEP2``; arguments, not globals, so that the disk cache holds no address), of the
+    mjModel and of the mjData. xmat (nbody,9), xpos (nbody,3), qvel (nv,), xfrc (nbody,6)
+    are that MjData's arrays (views); ids (2, N) the vehicles' root bodies and first dofs
+    of their free joints; t0 = d.time, dt the model timestep; the current varies when C
+    has rows. Returns the time after the steps as MuJoCo accumulates it, or NaN when a
+    velocity is not finite at the end."""
     cur = np.zeros(3)
     t = t0
+    varying = C.shape[0] > 0
     for _ in range(n):
-        _call_mj(fn1, m_addr, d_addr)
-        for i in range(bid.shape[0]):
-            b = bid[i]
-            q = dof[i]
+        _call_mj(addr[0], addr[2], addr[3])
+        for i in range(ids.shape[1]):
+            b = ids[0, i]
+            q = ids[1, i]
             if varying:
                 _current(xpos[b], t, cu, C, cur)
             else:
@@ -203,9 +203,11 @@ def step_world(
                 cur[2] = cu[2]
             _vehicle(
                 xmat[b].reshape(3, 3), xpos[b], qvel[q : q + 3], qvel[q + 3 : q + 6], cur,
-                tau[i], P[i], T, offsets[i], offsets[i + 1], command, level, force, decay,
-                xfrc[b], acc[i],
+                tau[i], P[i], T, offsets[i], offsets[i + 1], S, xfrc[b], acc[i],
             )  # fmt: skip
-        _call_mj(fn2, m_addr, d_addr)
+        _call_mj(addr[1], addr[2], addr[3])
         t += dt
+    for j in range(qvel.shape[0]):
+        if not np.isfinite(qvel[j]):
+            return np.nan
     return t

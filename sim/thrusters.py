@@ -95,10 +95,12 @@ class ThrusterBank:
         self.f_rev = np.array([s.max_reverse for s in specs])
         self.tc = np.array([s.time_constant for s in specs])
         self.lift_gain = np.array([s.lift_gain for s in specs])
+        # rows: command | level (lagged normalized shaft speed / deflection) | force N |
+        # lag decay per step; the named arrays are views, updated in place (the compiled
+        # step of sim.physics_kernel advances them through ``state``)
+        self.state = np.zeros((4, self.n))
+        self.command, self.level, self.force, self.decay = self.state
         self.set_dt(dt)
-        self.command = np.zeros(self.n)
-        self.level = np.zeros(self.n)  # lagged normalized shaft speed / deflection
-        self.force = np.zeros(self.n)
         cols = [s.column() for s in specs]
         self.columns = np.array(cols).reshape(self.n, 6)
         # stacked configuration: tau (N,6) = sum over channels of column * force
@@ -118,7 +120,7 @@ class ThrusterBank:
         )
 
     def set_dt(self, dt: float) -> None:
-        self.decay = np.exp(-float(dt) / self.tc)
+        self.decay[:] = np.exp(-float(dt) / self.tc)
 
     def set_commands(self, vehicle: int, u: np.ndarray) -> None:
         lo, hi = self.offsets[vehicle], self.offsets[vehicle + 1]
@@ -138,7 +140,7 @@ class ThrusterBank:
         α ≈ w_f / u_r): deflection lift plus the passive stabilizing lift of the fin."""
         c = self.command
         lv = c + (self.level - c) * self.decay
-        self.level = lv
+        self.level[:] = lv
         f = lv * np.abs(lv) * np.where(lv >= 0.0, self.f_fwd, self.f_rev)
         if self._fin_idx.size and nu_r is not None:
             nu = nu_r[self._fin_owner]  # (n_fin, 6)
@@ -149,7 +151,7 @@ class ThrusterBank:
             f[self._fin_idx] = au * (
                 self._fin_gain * lv[self._fin_idx] * u - self._fin_lift * cross
             )
-        self.force = f
+        self.force[:] = f
         return (self._scatter * f) @ self.columns
 
     def allocate(

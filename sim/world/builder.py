@@ -158,6 +158,8 @@ class World:
     _dofs: np.ndarray | slice | None = None
     _body_ids: np.ndarray | None = None  # (N,) vehicle root bodies (for the compiled step)
     _dof0: np.ndarray | None = None  # (N,) first dof of each vehicle's free joint
+    _ids: np.ndarray | None = None  # (2, N) [_body_ids; _dof0]
+    _addr: np.ndarray | None = None  # (4,) mj_step1, mj_step2, mjModel, mjData addresses
     _init_qpos: np.ndarray | None = None
     _static_cache: tuple | None = None
 
@@ -207,14 +209,16 @@ class World:
         if not self.vehicles:
             mujoco.mj_step(m, d, nstep=int(n))
         else:
-            th, cf = self.thrusters, self.current
-            step_world(
-                MJ_STEP1, MJ_STEP2, m._address, d._address, int(n), d.time, m.opt.timestep,
-                d.xmat, d.xpos, d.qvel, d.xfrc_applied, self._body_ids, self._dof0,
-                self._external, self.hydro.packed, th.table, th.offsets, th.command,
-                th.level, th.force, th.decay, cf.uniform, cf.modes, cf.varying,
-                self.hydro.last_accel,
+            th, cf, t0 = self.thrusters, self.current, d.time
+            t = step_world(
+                self._addr, int(n), t0, m.opt.timestep, d.xmat, d.xpos, d.qvel,
+                d.xfrc_applied, self._ids, self._external, self.hydro.packed, th.table,
+                th.offsets, th.state, cf.uniform, cf.modes, self.hydro.last_accel,
             )  # fmt: skip
+            # MuJoCo resets the data when a state goes bad (the time then restarts): the
+            # full check only when the time is off, or cannot tell (a run from t = 0)
+            if t == d.time and t0 != 0.0:
+                return
         if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.isfinite(d.qpos).all():
             raise FloatingPointError(
                 f"physics diverged at t = {d.time:.3f} s (MuJoCo bad qacc / non-finite state); "
@@ -552,6 +556,8 @@ def build_world(spec: WorldSpec) -> World:
         world._dofs = adr[:, None] + np.arange(6)[None, :]
         world._body_ids = np.array(bids, dtype=np.intp)
         world._dof0 = adr.astype(np.intp)
+        world._ids = np.ascontiguousarray(np.stack([world._body_ids, world._dof0]))
+        world._addr = np.array([MJ_STEP1, MJ_STEP2, model._address, data._address], np.intp)
         # vehicles are attached last, one body and one free joint each: use slices (views,
         # cheaper than fancy indexing every step) when their ids are contiguous
         if np.array_equal(world._bid, np.arange(bids[0], bids[0] + len(bids))):
