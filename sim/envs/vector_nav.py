@@ -112,7 +112,8 @@ class WaypointNavVectorEnv(VectorEnv):
                 depth=water_depth,
             ),
             vehicles=tuple(
-                VehicleSpec(vehicle, name=f"v{i}", position=self._start) for i in range(n)
+                VehicleSpec(vehicle, name=f"v{i}", position=(*xy, self._start[2]))
+                for i, xy in enumerate(_build_positions(n, self.arena_size))
             ),
             timestep=physics_dt,
         )
@@ -358,6 +359,14 @@ class WaypointNavVectorEnv(VectorEnv):
             NavEstimate(self._nav_pose[i].copy(), m[i, 0:3].copy(), *m[i, 3:8])
             for i in range(self.num_envs)
         ]
+
+
+def _build_positions(n: int, arena_size: float) -> list[tuple[float, float]]:
+    """n distinct (x, y) inside the arena to build the world with (the vehicles may not
+    overlap before their contacts are masked; every reset then puts them at the start)."""
+    side = int(np.ceil(np.sqrt(n)))
+    g = (np.arange(side) - (side - 1) / 2) * min(20.0, 0.8 * arena_size / side)
+    return [(float(g[i % side]), float(g[i // side])) for i in range(n)]
 
 
 def _euler(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
