@@ -67,7 +67,7 @@ def test_collision_terminates_like_the_single_env():
     venv, singles = _pair(n, seeds, 3000, False)
     a = np.tile(np.array([1.0, 0.0, -1.0], np.float32), (n, 1))  # thrust, elevator down
     for _ in range(600):
-        ov, rv, tv, trv, info = venv.step(a)
+        ov, _, tv, _, info = venv.step(a)
         outs = [e.step(a[i]) for i, e in enumerate(singles)]
         np.testing.assert_allclose(ov, np.array([o[0] for o in outs]), rtol=1e-6, atol=1e-12)
         assert list(tv) == [o[2] for o in outs]
