@@ -9,7 +9,8 @@ vehicles attached from ``assets/vehicles/<kind>/<kind>.xml`` with prefix ``"<nam
 MuJoCo's own fluid model is off (density = viscosity = 0) and gravity is on; buoyancy,
 added mass, damping, currents and thrust are applied each physics step through
 ``xfrc_applied`` by ``sim.hydrodynamics.HydroBatch`` and ``sim.thrusters.ThrusterBank``,
-vectorized over all vehicles (``mj_step1`` → one numpy pass → ``mj_step2``).
+vectorized over all vehicles (``mj_step1`` → one compiled pass over the vehicles →
+``mj_step2``, n steps per call: ``sim.physics_kernel``).
 
 Build time is dominated by MuJoCo's processing of the seabed mesh (≈ 3 µs per triangle):
 ≈ 1.3 s for the default 100 m × 100 m at 0.25 m (320 k triangles), ≈ 5 s for 1.28 M.
