@@ -171,13 +171,27 @@ class WaypointNavEnv(UnderseaEnv):
         return self._get_obs(), info
 
     def _get_obs(self) -> np.ndarray:
+        """One row of ``waypoint_observation``, in scalars (cheaper for one vehicle)."""
         nav = self.nav_estimate()
+        o = np.zeros(17, np.float32)
+        x, y, yaw = nav.pose
         wp = self.waypoints[min(self._k, self.n_waypoints - 1)]
-        return waypoint_observation(
-            nav.pose[None], wp[None], nav.velocity[None], np.array([nav.yaw_rate]),
-            np.array([nav.depth]), np.array([nav.altitude]), np.array([nav.roll]),
-            np.array([nav.pitch]), np.array([self.n_waypoints - self._k]),
-        )[0]  # fmt: skip
+        dx, dy = wp[0] - x, wp[1] - y
+        c, s = np.cos(yaw), np.sin(yaw)
+        o[0] = c * dx + s * dy
+        o[1] = -s * dx + c * dy
+        o[2] = wp[2] - (-nav.depth)
+        o[3] = np.hypot(dx, dy)
+        rel = np.arctan2(o[1], o[0])
+        o[4], o[5] = np.sin(rel), np.cos(rel)
+        o[6:9] = nav.velocity
+        o[9] = nav.yaw_rate
+        o[10] = nav.depth
+        o[11] = nav.altitude if np.isfinite(nav.altitude) else 0.0
+        o[12], o[13] = nav.roll, nav.pitch
+        o[14], o[15] = s, c
+        o[16] = self.n_waypoints - self._k
+        return o
 
     def _get_rew(self, st, collided: bool) -> tuple[float, dict]:
         wp = self.waypoints[min(self._k, self.n_waypoints - 1)]
