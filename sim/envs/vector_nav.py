@@ -253,10 +253,12 @@ class WaypointNavVectorEnv(VectorEnv):
             self._t += dt
         self._elapsed += 1
         pos, quat, vb, om, alt = self._true()
+        true_yaw = None
         if self.nav_sensors:
             self._poll_nav(~resetting)
         else:
             roll, pitch, yaw = _euler(quat)
+            true_yaw = yaw
             self._meas[:, 0:3] = vb
             self._meas[:, 3] = om[:, 2]
             self._meas[:, 4] = -pos[:, 2]
@@ -272,7 +274,7 @@ class WaypointNavVectorEnv(VectorEnv):
             if self.max_episode_steps is None
             else self._elapsed >= self.max_episode_steps
         )
-        info = self._info(pos, quat, vb, collided)
+        info = self._info(pos, quat, vb, collided, true_yaw)
         info.update(terms)
         info["action_clipped"] = clipped & ~resetting
         for i in np.flatnonzero(resetting):
@@ -340,8 +342,8 @@ class WaypointNavVectorEnv(VectorEnv):
             self.n_waypoints - self._k,
         )  # fmt: skip
 
-    def _info(self, pos, quat, vb, collided) -> dict:
-        yaw = _euler(quat)[2]
+    def _info(self, pos, quat, vb, collided, yaw=None) -> dict:
+        yaw = _euler(quat)[2] if yaw is None else yaw
         return {
             "true_position": pos.copy(),
             "true_yaw": yaw,
