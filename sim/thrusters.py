@@ -125,11 +125,11 @@ class ThrusterBank:
     def set_commands(self, vehicle: int, u: np.ndarray) -> None:
         lo, hi = self.offsets[vehicle], self.offsets[vehicle + 1]
         u = np.asarray(u, dtype=float).reshape(-1)
-        if u.shape != (hi - lo,) or not np.all(np.isfinite(u)):
+        if u.shape != (hi - lo,) or not np.isfinite(u).all():
             raise ValueError(
                 f"thruster commands must be {hi - lo} finite numbers in [-1, 1], got {u!r}"
             )
-        self.command[lo:hi] = np.clip(u, -1.0, 1.0)
+        self.command[lo:hi] = np.minimum(np.maximum(u, -1.0), 1.0)  # finite: same as clip
 
     def step(self, nu_r: np.ndarray | None) -> np.ndarray:
         """Advance the lag one step; return the per-vehicle body wrench (N, 6).

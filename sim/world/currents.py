@@ -79,7 +79,8 @@ class CurrentField:
     def velocity(self, pos: np.ndarray, t: float) -> np.ndarray:
         """World-frame current (N, 3) at positions (N, 3) and time t."""
         n = pos.shape[0]
-        out = np.broadcast_to(self.uniform, (n, 3)).copy()
+        out = np.empty((n, 3))
+        out[:] = self.uniform
         if self.varying:
             arg = pos[:, :1] * self.kx + pos[:, 1:2] * self.ky - self.omega * t + self.phase
             c = np.cos(arg) * self.amp  # (N, K)
