@@ -5,12 +5,21 @@ Cases, measured one after the other in one run, random actions, resets included:
   SonarSurvey-v0             — one side-scan ping every step (fast SSS, 2 x 128 samples);
   ActiveSLAM-v0              — ping every step + windowed segmentation + lagged AEKF;
   WaypointNav-v0 x N async   — ``gymnasium.make_vec(..., vectorization_mode="async")``
-                               (total steps/s over the N sub-environments).
+                               (total steps/s over the N sub-environments);
+  WaypointNav-v0 x B batch   — ``vectorization_mode="vector_entry_point"``
+                               (sim.envs.vector_nav, B vehicles in one model), nav
+                               sensors on and ideal navigation; its RSS after the
+                               warm-up and after ``--growth-steps`` more env steps;
+  bare mj_step               — the WaypointNav model's own ``mj_step`` rate, per action
+                               (``frame_skip`` physics steps), the floor of the env.
 Targets (issue 6, this machine): WaypointNav >= 2,000 steps/s on one core; SonarSurvey
-with a sonar frame every step >= 200 steps/s. Wrappers are the registered ones
-(TimeLimit, OrderEnforcing, PassiveEnvChecker) as a user gets from ``gymnasium.make``.
+with a sonar frame every step >= 200 steps/s. Issue 16 (ratios in one run): batch at
+64 >= 20x the single env of the same navigation mode; RSS < 2 GB at 64, no growth.
+Single, batch and bare figures are CPU time of this thread; async is wall time.
+Wrappers are the registered ones (TimeLimit, OrderEnforcing, PassiveEnvChecker) as a
+user gets from ``gymnasium.make``.
 
-    undersea bench env [--json] [--steps N] [--vec N]
+    undersea bench env [--json] [--steps N] [--vec N] [--batch B] [--growth-steps S]
 """
 
 from __future__ import annotations
@@ -22,6 +31,15 @@ import platform
 import time
 
 TARGETS = {"WaypointNav-v0": 2000.0, "SonarSurvey-v0": 200.0}
+BATCH_GOAL = 20.0  # batch aggregate steps/s over the single env's, same navigation mode
+RSS_GOAL_MB = 2048.0
+
+
+def _clock() -> float:
+    """CPU time of this thread: the in-process cases are single-threaded, and on a shared
+    machine their CPU time is steadier than the wall clock (the async case, whose work is
+    in other processes, is timed by the wall clock)."""
+    return time.thread_time()
 
 
 def _single(env_id: str, steps: int, **kw) -> float:
@@ -35,12 +53,12 @@ def _single(env_id: str, steps: int, **kw) -> float:
         _, _, te, tr, _ = env.step(a)
         if te or tr:
             env.reset()
-    t0 = time.perf_counter()
+    t0 = _clock()
     for k in range(steps):
         _, _, te, tr, _ = env.step(acts[k % len(acts)])
         if te or tr:
             env.reset()
-    dt = time.perf_counter() - t0
+    dt = _clock() - t0
     env.close()
     return steps / dt
 
@@ -61,6 +79,54 @@ def _vector(env_id: str, n: int, steps: int, **kw) -> float:
     return n * steps / dt
 
 
+def _rss_mb() -> float:
+    import psutil
+
+    return psutil.Process().memory_info().rss / 2**20
+
+
+def _batch(n: int, steps: int, growth_steps: int, **kw) -> dict:
+    """Aggregate steps/s of the batched env; RSS after the warm-up and after
+    ``growth_steps`` more env steps (all sub-envs counted)."""
+    import gymnasium as gym
+    import numpy as np
+
+    venv = gym.make_vec(
+        "undersea/WaypointNav-v0", num_envs=n, vectorization_mode="vector_entry_point", **kw
+    )
+    venv.reset(seed=0)
+    rng = np.random.default_rng(0)
+    acts = rng.uniform(-1, 1, (64, *venv.action_space.shape)).astype(np.float32)
+    for k in range(10):
+        venv.step(acts[k])
+    rss0 = _rss_mb()
+    t0 = _clock()
+    for k in range(steps):
+        venv.step(acts[k % 64])
+    rate = n * steps / (_clock() - t0)
+    for k in range(max(0, growth_steps // n - steps)):
+        venv.step(acts[k % 64])
+    out = {"steps_per_s": rate, "rss_mb_start": rss0, "rss_mb_end": _rss_mb()}
+    out["env_steps_between_rss"] = max(growth_steps, n * steps)
+    venv.close()
+    return out
+
+
+def _bare_rate() -> float:
+    """Actions/s the WaypointNav model's bare mj_step allows (frame_skip steps each)."""
+    import gymnasium as gym
+    import mujoco
+
+    env = gym.make("undersea/WaypointNav-v0").unwrapped
+    env.reset(seed=0)
+    m, d = env.world.model, env.world.data
+    m.opt.gravity[:] = 0.0  # stays in mid-water like the env's vehicle
+    n = 20000
+    t0 = _clock()
+    mujoco.mj_step(m, d, nstep=n)
+    return n / env.frame_skip / (_clock() - t0)
+
+
 def main(argv: list[str] | None = None) -> int:
     import sim.envs  # noqa: F401
 
@@ -70,6 +136,10 @@ def main(argv: list[str] | None = None) -> int:
         "--steps", type=int, default=2000, help="steps per WaypointNav case (sonar envs: /5)"
     )
     p.add_argument("--vec", type=int, default=2, help="sub-environments for the async case")
+    p.add_argument("--batch", type=int, default=64, help="vehicles of the batched env")
+    p.add_argument(
+        "--growth-steps", type=int, default=100_000, help="env steps between the RSS readings"
+    )
     a = p.parse_args(argv)
     n = a.steps
     res = {
@@ -87,7 +157,26 @@ def main(argv: list[str] | None = None) -> int:
             "undersea/SonarSurvey-v0", a.vec, max(20, n // (5 * a.vec))
         ),
     }
+    b = a.batch
+    batch = {
+        "ideal-nav": _batch(b, max(20, n // b * 4), a.growth_steps, nav_sensors=False),
+        "nav-sensors": _batch(b, max(3, n // (4 * b)), 0),
+    }
+    res[f"WaypointNav-v0 x{b} batch"] = batch["nav-sensors"]["steps_per_s"]
+    res[f"WaypointNav-v0 x{b} batch ideal-nav"] = batch["ideal-nav"]["steps_per_s"]
+    res["bare mj_step (actions/s)"] = _bare_rate()
+    ratios = {
+        f"x{b} batch / single": res[f"WaypointNav-v0 x{b} batch"] / res["WaypointNav-v0"],
+        f"x{b} batch ideal-nav / single ideal-nav": res[f"WaypointNav-v0 x{b} batch ideal-nav"]
+        / res["WaypointNav-v0 ideal-nav"],
+        "bare mj_step / single": res["bare mj_step (actions/s)"] / res["WaypointNav-v0"],
+    }
+    rss = batch["ideal-nav"]
     out = {
+        "ratios": ratios,
+        "batch_goal": BATCH_GOAL,
+        "rss_mb": rss,
+        "rss_goal_mb": RSS_GOAL_MB,
         "steps_per_s": {k: round(v, 1) for k, v in res.items()},
         "targets_steps_per_s": TARGETS,
         "meets_target": {k: res[k] >= t for k, t in TARGETS.items()},
@@ -104,7 +193,15 @@ def main(argv: list[str] | None = None) -> int:
         for k, v in res.items():
             tgt = TARGETS.get(k)
             mark = "" if tgt is None else f"   target >= {tgt:.0f}: {'yes' if v >= tgt else 'NO'}"
-            print(f"  {k:<32} {v:10.1f}{mark}")
+            print(f"  {k:<40} {v:10.1f}{mark}")
+        for k, v in ratios.items():
+            goal = f"   goal >= {BATCH_GOAL:g}x: {'yes' if v >= BATCH_GOAL else 'NO'}"
+            print(f"  ratio {k:<34} {v:8.2f}x{goal if 'batch' in k else ''}")
+        print(
+            f"  batch x{b} RSS {rss['rss_mb_start']:.0f} MB after warm-up, "
+            f"{rss['rss_mb_end']:.0f} MB after {rss['env_steps_between_rss']} more env steps "
+            f"(goal < {RSS_GOAL_MB:.0f} MB, no growth)"
+        )
     return 0
 
 

@@ -48,6 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import elliprd
 
+from sim.physics_kernel import wrench_batch
+
 _DOF = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 
 
@@ -175,65 +177,15 @@ class HydroParams:
         return np.concatenate([[self.mass] * 3, self.inertia])
 
 
-_EPS = np.zeros((3, 3, 3))
-_EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
-_EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
-# offsets in z = [v_r, ω, v, s·e_z, e_z, 1]
-_VR, _W, _V, _EB, _EZ, _ONE = 0, 3, 6, 9, 12, 15
-
-
-def _quadratic_tensor(h: HydroParams, rho: float, g: float) -> np.ndarray:
-    """Q (256, 12) with out_i = Σ_jk Q[16 j + k, i] z_j z_k (see ``HydroBatch.body_wrench``).
-
-    Outputs 0–5: the right-hand side terms besides τ and damping,
-        lin: −ω×(A_v v_r) − ω×(m v) − A_v(ω×v) + A_v(ω×v_r) − W e_z + B s e_z
-        ang: −v_r×(A_v v_r) − ω×(A_ω ω) − ω×(I ω) + B r_B×(s e_z)
-    Outputs 6–11: the extra applied-force terms C_RB(ν)ν − f_gravity,
-        lin: ω×(m v) + W e_z;  ang: ω×(I ω).
-    """
-    Q = np.zeros((16, 16, 12))
-    av = np.asarray(h.added_mass[:3])
-    aw = np.asarray(h.added_mass[3:])
-    inertia = np.asarray(h.inertia)
-    m = float(h.mass)
-    one = np.ones(3)
-    W = m * g
-    B = rho * h.volume * g
-
-    def cross(ia: int, ib: int, out: int, coef, d) -> None:
-        # out_i += coef_i · (a × (d ∘ b))_i = coef_i ε_ilm a_l d_m b_m
-        Q[ia : ia + 3, ib : ib + 3, out : out + 3] += np.einsum(
-            "ilm,i,m->lmi", _EPS, np.broadcast_to(coef, 3), np.broadcast_to(d, 3)
-        )
-
-    cross(_W, _VR, 0, -1.0, av)
-    cross(_W, _V, 0, -1.0, m * one)
-    cross(_W, _V, 0, -av, one)
-    cross(_W, _VR, 0, av, one)
-    for i in range(3):
-        Q[_EZ + i, _ONE, 0 + i] += -W
-        Q[_EB + i, _ONE, 0 + i] += B
-    cross(_VR, _VR, 3, -1.0, av)
-    cross(_W, _W, 3, -1.0, aw)
-    cross(_W, _W, 3, -1.0, inertia)
-    # B r_B × e_b: (r × e)_i = ε_ilm r_l e_m, linear in e_b (paired with the constant 1)
-    Q[_EB : _EB + 3, _ONE, 3:6] += B * np.einsum("ilm,l->mi", _EPS, np.asarray(h.r_cb))
-    cross(_W, _V, 6, 1.0, m * one)
-    for i in range(3):
-        Q[_EZ + i, _ONE, 6 + i] += W
-    cross(_W, _W, 9, 1.0, inertia)
-    return Q.reshape(256, 12)
-
-
 class HydroBatch:
-    """The model above for N vehicles at once: one numpy pass per physics step.
+    """The model above for N vehicles at once, in one compiled pass per physics step.
 
-    ``body_wrench`` takes stacked states and returns the world-frame ``xfrc_applied``
-    rows (N, 6) [force; torque] that make MuJoCo integrate the full model, evaluating all
-    quadratic terms of all vehicles with one outer product and one batched matrix product
-    (per-step cost is set by the number of numpy calls, ≈ 30, not by N).
-    ``body_wrench_explicit`` is the same model written term by term (the reference the
-    fast path is tested against).
+    Holds the stacked parameters (``packed``, the (N, 37) layout of ``sim.physics_kernel``)
+    and the last body acceleration ν̇* (``last_accel``). ``sim.world`` steps through
+    ``sim.physics_kernel.step_world`` (forces computed between ``mj_step1`` and
+    ``mj_step2`` without returning to Python); ``body_wrench`` is the same evaluation for
+    stacked numpy states, for a single forward pass and for tests. The previous numpy
+    implementations live on as the test reference (tests/helpers/hydro_reference.py).
     """
 
     def __init__(self, params: list[HydroParams], rho: float, gravity: float, surface_z: float):
@@ -244,76 +196,29 @@ class HydroBatch:
         self.g = float(gravity)
         self.surface_z = float(surface_z)
         p = params
-        self.m = np.array([q.mass for q in p])[:, None]  # (N, 1)
-        self.mrb = np.stack([q.rigid_body_mass for q in p])  # (N, 6)
-        self.inertia = self.mrb[:, 3:].copy()
-        self.ma = np.stack([q.added_mass for q in p])  # (N, 6)
-        self.ma_lin = self.ma[:, :3].copy()
-        self.ma_rot = self.ma[:, 3:].copy()
-        self.dl = np.stack([q.linear_damping for q in p])
-        self.dq = np.stack([q.quadratic_damping for q in p])
-        self.r_cb = np.stack([q.r_cb for q in p])
-        self.weight = self.m[:, 0] * self.g  # (N,)
-        self.neg_weight = -self.weight[:, None]
-        self.buoyancy = self.rho * np.array([q.volume for q in p]) * self.g  # fully submerged
+        mrb = np.stack([q.rigid_body_mass for q in p])  # (N, 6)
+        ma = np.stack([q.added_mass for q in p])  # (N, 6)
         h = np.array([q.height for q in p])
-        self.inv_h = 1.0 / h
-        self.sub_offset = 0.5 + self.surface_z / h
-        self.minv = 1.0 / (self.mrb + self.ma)  # diagonal total mass -> element-wise inverse
+        mass = np.array([q.mass for q in p])
+        self.packed = np.ascontiguousarray(
+            np.column_stack(
+                [
+                    mrb,
+                    ma,
+                    1.0 / (mrb + ma),  # diagonal total mass -> element-wise inverse
+                    np.stack([q.linear_damping for q in p]),
+                    np.stack([q.quadratic_damping for q in p]),
+                    np.stack([q.r_cb for q in p]),
+                    mass * self.g,  # weight W
+                    self.rho * np.array([q.volume for q in p]) * self.g,  # buoyancy, submerged
+                    1.0 / h,
+                    0.5 + self.surface_z / h,  # submerged fraction = offset − z / height
+                ]
+            )
+        )
         self.last_accel = np.zeros((self.n, 6))
-        self._a = np.zeros((self.n, 7, 5))
-        self._b = np.zeros((self.n, 7, 5))
-        self._a[:, 5, :3] = self.r_cb
-        self._q = np.stack([_quadratic_tensor(q, self.rho, self.g) for q in p])  # (N, 256, 12)
-        self._z = np.zeros((self.n, 16))
-        self._z[:, 15] = 1.0
 
     def body_wrench(
-        self,
-        rot: np.ndarray,
-        pos: np.ndarray,
-        vel_world: np.ndarray,
-        omega_body: np.ndarray,
-        current_world: np.ndarray | None,
-        tau: np.ndarray,
-        thrusters=None,
-    ) -> np.ndarray:
-        """xfrc_applied rows (N, 6); same arguments, result and side effects as
-        ``body_wrench_explicit`` (the readable reference it is tested against).
-
-        Every term of the model except damping and τ is a polynomial of degree ≤ 2 in
-        z = [v_r, ω, v, s·e_z, e_z, 1] (16,) — Coriolis and added-mass Coriolis terms are
-        bilinear, M_A ν̇_c = −A_v (ω × (v − v_r)) too, weight and buoyancy (with the
-        submerged fraction s and e_z the world vertical in body axes) are linear. Each
-        vehicle's coefficients sit in a constant tensor Q (256, 12) built once
-        (``_quadratic_tensor``), so a step evaluates all of them for all vehicles with
-        one outer product and one batched matrix product:
-        [rhs terms (6) | applied-force terms (6)] = (z ⊗ z) Q.
-        """
-        ez = rot[:, 2, :]  # world z axis in body coordinates
-        z = self._z
-        if current_world is None:
-            v = (vel_world[:, None, :] @ rot)[:, 0, :]  # R^T v
-            z[:, 0:3] = v
-        else:
-            vv = np.stack([vel_world, current_world], axis=1) @ rot
-            v = vv[:, 0, :]
-            z[:, 0:3] = v - vv[:, 1, :]
-        z[:, 3:6] = omega_body
-        z[:, 6:9] = v
-        z[:, 12:15] = ez
-        sub = np.minimum(np.maximum(self.sub_offset - pos[:, 2] * self.inv_h, 0.0), 1.0)
-        z[:, 9:12] = sub[:, None] * ez
-        q = ((z[:, :, None] * z[:, None, :]).reshape(self.n, 1, 256) @ self._q)[:, 0, :]
-        nur = z[:, :6]
-        if thrusters is not None:
-            tau = tau + thrusters.step(nur)
-        acc = (tau + q[:, :6] - (self.dl + self.dq * np.abs(nur)) * nur) * self.minv
-        self.last_accel = acc
-        f = self.mrb * acc + q[:, 6:]
-        return (f.reshape(-1, 2, 3) @ np.swapaxes(rot, 1, 2)).reshape(-1, 6)
-
-    def body_wrench_explicit(
         self,
         rot: np.ndarray,
         pos: np.ndarray,
@@ -327,61 +232,24 @@ class HydroBatch:
         vel_world (N,3) m/s, omega_body (N,3) rad/s, current_world (N,3) m/s or None, and
         tau (N,6) body-frame external wrench. ``thrusters`` (a ``sim.thrusters.ThrusterBank``
         or None) is advanced one step with this step's relative velocity ν_r and its wrench
-        added to tau. Stores ν̇* in ``last_accel``.
+        added to tau. Stores ν̇* in ``last_accel``."""
+        n = self.n
+        f64 = np.float64
 
-        Written for few numpy calls (each costs ~1 µs whatever N is): the cross products
-        of a step go through one batched evaluation on buffers whose last axis repeats
-        the first two components ([x, y, z, x, y]), so a×b = a[1:4]·b[2:5] − a[2:5]·b[1:4]
-        uses views only."""
-        w = omega_body
-        ez = rot[:, 2, :]  # world z axis in body coordinates (row 3 of body->world)
-        if current_world is None:
-            v = (vel_world[:, None, :] @ rot)[:, 0, :]  # R^T v
-            vr = v
+        def arr(a, shape):
+            return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=f64), shape))
+
+        cur = np.zeros((n, 3)) if current_world is None else arr(current_world, (n, 3))
+        if thrusters is None:
+            table, offsets, state = np.zeros((0, 10)), np.zeros(n + 1, np.intp), np.zeros((4, 0))
         else:
-            vv = np.stack([vel_world, current_world], axis=1) @ rot
-            v = vv[:, 0, :]
-            vc = vv[:, 1, :]
-            vr = v - vc
-        nur = np.concatenate([vr, w], axis=1)
-        if thrusters is not None:
-            tau = tau + thrusters.step(nur)
-        damp = (self.dl + self.dq * np.abs(nur)) * nur
-        # buoyancy along +z_world scaled by the submerged fraction of the height
-        sub = np.minimum(np.maximum(self.sub_offset - pos[:, 2] * self.inv_h, 0.0), 1.0)
-        fb = (self.buoyancy * sub)[:, None] * ez
-        fw = self.neg_weight * ez
-        # cross products: 0 w×(A v_r), 1 w×(m v), 2 v_r×(A v_r), 3 w×(A_ω ω), 4 w×(I ω),
-        # 5 r_B×f_B, 6 w×v_c
-        a = self._a
-        b = self._b
-        a[:, 0, :3] = w
-        a[:, 1, :3] = w
-        a[:, 2, :3] = vr
-        a[:, 3, :3] = w
-        a[:, 4, :3] = w
-        a[:, 6, :3] = w
-        b[:, 0, :3] = self.ma_lin * vr
-        b[:, 1, :3] = self.m * v
-        b[:, 2, :3] = b[:, 0, :3]
-        b[:, 3, :3] = self.ma_rot * w
-        b[:, 4, :3] = self.inertia * w
-        b[:, 5, :3] = fb
-        if current_world is not None:
-            b[:, 6, :3] = vc
-        a[:, :, 3:] = a[:, :, :2]
-        b[:, :, 3:] = b[:, :, :2]
-        c = a[:, :, 1:4] * b[:, :, 2:5] - a[:, :, 2:5] * b[:, :, 1:4]
-        rhs = tau - damp
-        rhs[:, :3] += fw + fb - c[:, 0] - c[:, 1]
-        rhs[:, 3:] += c[:, 5] - c[:, 2] - c[:, 3] - c[:, 4]
-        if current_world is not None:
-            rhs[:, :3] -= self.ma_lin * c[:, 6]  # + M_A ν̇_c with ν̇_c = −ω × v_c
-        acc = rhs * self.minv
+            table, offsets, state = thrusters.table, thrusters.offsets, thrusters.state
+        out = np.empty((n, 6))
+        acc = np.empty((n, 6))
+        wrench_batch(
+            arr(rot, (n, 3, 3)), arr(pos, (n, 3)), arr(vel_world, (n, 3)),
+            arr(omega_body, (n, 3)), cur, arr(tau, (n, 6)), self.packed, table, offsets,
+            state, out, acc,
+        )  # fmt: skip
         self.last_accel = acc
-        # force that makes MuJoCo's rigid body (with its own gravity) produce `acc`:
-        # f = M_RB acc + C_RB(ν) ν − f_gravity; C_RB ν = [w×(m v); w×(I w)]
-        f = self.mrb * acc
-        f[:, :3] += c[:, 1] - fw
-        f[:, 3:] += c[:, 4]
-        return (f.reshape(-1, 2, 3) @ np.swapaxes(rot, 1, 2)).reshape(-1, 6)
+        return out

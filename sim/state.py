@@ -7,6 +7,7 @@ controllers, the runner and the envs. Plain arrays, SI units.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -42,14 +43,14 @@ class VehicleState:
         """Depth below the datum z = 0, m (positive down)."""
         return float(-self.position[2])
 
-    @property
+    @cached_property
     def rotation(self) -> np.ndarray:
-        """(3, 3) body->world rotation matrix."""
+        """(3, 3) body->world rotation matrix (computed once per state)."""
         return matrix_from_wxyz(self.quat_wxyz)
 
-    @property
+    @cached_property
     def euler(self) -> np.ndarray:
-        """(roll, pitch, yaw) in rad; yaw counter-clockwise from east."""
+        """(roll, pitch, yaw) in rad; yaw counter-clockwise from east (computed once)."""
         return euler_from_wxyz(self.quat_wxyz)
 
     @property

@@ -88,17 +88,19 @@ class ThrusterBank:
         self.owner = np.array(
             [i for i, vs in enumerate(specs_per_vehicle) for _ in vs], dtype=np.intp
         )
-        self.offsets = np.cumsum([0] + [len(vs) for vs in specs_per_vehicle])
+        self.offsets = np.cumsum([0] + [len(vs) for vs in specs_per_vehicle]).astype(np.intp)
         self.is_fin = np.array([s.kind == "fin" for s in specs], dtype=bool)
         self.any_fin = bool(self.is_fin.any())
         self.f_fwd = np.array([s.max_forward for s in specs])
         self.f_rev = np.array([s.max_reverse for s in specs])
         self.tc = np.array([s.time_constant for s in specs])
         self.lift_gain = np.array([s.lift_gain for s in specs])
+        # rows: command | level (lagged normalized shaft speed / deflection) | force N |
+        # lag decay per step; the named arrays are views, updated in place (the compiled
+        # step of sim.physics_kernel advances them through ``state``)
+        self.state = np.zeros((4, self.n))
+        self.command, self.level, self.force, self.decay = self.state
         self.set_dt(dt)
-        self.command = np.zeros(self.n)
-        self.level = np.zeros(self.n)  # lagged normalized shaft speed / deflection
-        self.force = np.zeros(self.n)
         cols = [s.column() for s in specs]
         self.columns = np.array(cols).reshape(self.n, 6)
         # stacked configuration: tau (N,6) = sum over channels of column * force
@@ -110,18 +112,24 @@ class ThrusterBank:
         self._fin_cols = self.columns[self._fin_idx]
         self._fin_gain = self.f_fwd[self._fin_idx]
         self._fin_lift = self.lift_gain[self._fin_idx]
+        # the (k, 10) channel table of sim.physics_kernel: column | F_fwd | F_rev | lift | fin
+        self.table = np.ascontiguousarray(
+            np.column_stack(
+                [self.columns, self.f_fwd, self.f_rev, self.lift_gain, self.is_fin.astype(float)]
+            ).reshape(self.n, 10)
+        )
 
     def set_dt(self, dt: float) -> None:
-        self.decay = np.exp(-float(dt) / self.tc)
+        self.decay[:] = np.exp(-float(dt) / self.tc)
 
     def set_commands(self, vehicle: int, u: np.ndarray) -> None:
         lo, hi = self.offsets[vehicle], self.offsets[vehicle + 1]
         u = np.asarray(u, dtype=float).reshape(-1)
-        if u.shape != (hi - lo,) or not np.all(np.isfinite(u)):
+        if u.shape != (hi - lo,) or not np.isfinite(u).all():
             raise ValueError(
                 f"thruster commands must be {hi - lo} finite numbers in [-1, 1], got {u!r}"
             )
-        self.command[lo:hi] = np.clip(u, -1.0, 1.0)
+        self.command[lo:hi] = np.minimum(np.maximum(u, -1.0), 1.0)  # finite: same as clip
 
     def step(self, nu_r: np.ndarray | None) -> np.ndarray:
         """Advance the lag one step; return the per-vehicle body wrench (N, 6).
@@ -132,7 +140,7 @@ class ThrusterBank:
         α ≈ w_f / u_r): deflection lift plus the passive stabilizing lift of the fin."""
         c = self.command
         lv = c + (self.level - c) * self.decay
-        self.level = lv
+        self.level[:] = lv
         f = lv * np.abs(lv) * np.where(lv >= 0.0, self.f_fwd, self.f_rev)
         if self._fin_idx.size and nu_r is not None:
             nu = nu_r[self._fin_owner]  # (n_fin, 6)
@@ -143,7 +151,7 @@ class ThrusterBank:
             f[self._fin_idx] = au * (
                 self._fin_gain * lv[self._fin_idx] * u - self._fin_lift * cross
             )
-        self.force = f
+        self.force[:] = f
         return (self._scatter * f) @ self.columns
 
     def allocate(

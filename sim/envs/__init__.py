@@ -8,6 +8,9 @@
     import sim.envs  # noqa: F401  (registers the ids)
     env = gym.make("undersea/WaypointNav-v0", vehicle="alister9", render_mode="rgb_array")
 
+    venv = gym.make_vec("undersea/WaypointNav-v0", num_envs=64,
+                        vectorization_mode="vector_entry_point")  # sim.envs.vector_nav
+
 Each class docstring is the manual (spaces with units, rewards, episode end, arguments).
 """
 
@@ -18,10 +21,18 @@ _ENVS = {
     "undersea/SonarSurvey-v0": ("sim.envs.sonar_survey:SonarSurveyEnv", 3000),
     "undersea/ActiveSLAM-v0": ("sim.envs.active_slam:ActiveSLAMEnv", 2000),
 }
+# batched versions (N vehicles in one MuJoCo model), for
+# gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")
+_VECTOR = {"undersea/WaypointNav-v0": "sim.envs.vector_nav:WaypointNavVectorEnv"}
 
 for _id, (_entry, _steps) in _ENVS.items():
     if _id not in registry:
-        register(id=_id, entry_point=_entry, max_episode_steps=_steps)
+        register(
+            id=_id,
+            entry_point=_entry,
+            vector_entry_point=_VECTOR.get(_id),
+            max_episode_steps=_steps,
+        )
 
 ENV_IDS = tuple(_ENVS)
 __all__ = ["ENV_IDS"]

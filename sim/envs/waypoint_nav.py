@@ -9,6 +9,55 @@ import numpy as np
 from sim.envs.base import UnderseaEnv
 
 
+def sample_waypoints(
+    rng: np.random.Generator, n: int, arena_size: float, water_depth: float
+) -> np.ndarray:
+    """(n, 3) waypoints, world m: each 20-60 m horizontally from the previous one (the
+    first from the origin), inside the arena less a 10 m margin, depth in
+    [5, water_depth - 8] m (at least 5.5 m of range), drawn from rng in a fixed order."""
+    half = arena_size / 2 - 10.0
+    wps = []
+    p = np.zeros(2)
+    for _ in range(n):
+        for _ in range(100):
+            ang = rng.uniform(-np.pi, np.pi)
+            d = rng.uniform(20.0, 60.0)
+            q = p + d * np.array([np.cos(ang), np.sin(ang)])
+            if np.all(np.abs(q) < half):
+                break
+        p = np.clip(q, -half, half)
+        z = -rng.uniform(5.0, max(5.5, water_depth - 8.0))
+        wps.append([p[0], p[1], z])
+    return np.array(wps)
+
+
+def waypoint_observation(
+    nav_pose, wp, velocity, yaw_rate, depth, altitude, roll, pitch, remaining
+) -> np.ndarray:
+    """Observations (N, 17) float32 of N vehicles (the table of WaypointNavEnv) from their
+    nav poses (N, 3) [x, y, yaw], current waypoints (N, 3), DVL velocities (N, 3) and the
+    (N,) yaw rates, depths, altitudes (non-finite -> 0), roll, pitch, waypoints left."""
+    n = len(nav_pose)
+    o = np.zeros((n, 17), np.float32)
+    x, y, yaw = nav_pose[:, 0], nav_pose[:, 1], nav_pose[:, 2]
+    dx, dy = wp[:, 0] - x, wp[:, 1] - y
+    c, s = np.cos(yaw), np.sin(yaw)
+    o[:, 0] = c * dx + s * dy
+    o[:, 1] = -s * dx + c * dy
+    o[:, 2] = wp[:, 2] - (-depth)
+    o[:, 3] = np.hypot(dx, dy)
+    rel = np.arctan2(o[:, 1], o[:, 0])  # of the float32 components
+    o[:, 4], o[:, 5] = np.sin(rel), np.cos(rel)
+    o[:, 6:9] = velocity
+    o[:, 9] = yaw_rate
+    o[:, 10] = depth
+    o[:, 11] = np.where(np.isfinite(altitude), altitude, 0.0)
+    o[:, 12], o[:, 13] = roll, pitch
+    o[:, 14], o[:, 15] = s, c
+    o[:, 16] = remaining
+    return o
+
+
 class WaypointNavEnv(UnderseaEnv):
     """Reach a sequence of 3-D waypoints with one SWARMs vehicle, from navigation sensors.
 
@@ -108,21 +157,7 @@ class WaypointNavEnv(UnderseaEnv):
         self._prev_dist = 0.0
 
     def _sample_waypoints(self) -> np.ndarray:
-        rng = self.np_random
-        half = self.arena_size / 2 - 10.0
-        wps = []
-        p = np.zeros(2)
-        for _ in range(self.n_waypoints):
-            for _ in range(100):
-                ang = rng.uniform(-np.pi, np.pi)
-                d = rng.uniform(20.0, 60.0)
-                q = p + d * np.array([np.cos(ang), np.sin(ang)])
-                if np.all(np.abs(q) < half):
-                    break
-            p = np.clip(q, -half, half)
-            z = -rng.uniform(5.0, max(5.5, self.water_depth - 8.0))
-            wps.append([p[0], p[1], z])
-        return np.array(wps)
+        return sample_waypoints(self.np_random, self.n_waypoints, self.arena_size, self.water_depth)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -136,11 +171,11 @@ class WaypointNavEnv(UnderseaEnv):
         return self._get_obs(), info
 
     def _get_obs(self) -> np.ndarray:
+        """One row of ``waypoint_observation``, in scalars (cheaper for one vehicle)."""
         nav = self.nav_estimate()
         o = np.zeros(17, np.float32)
         x, y, yaw = nav.pose
-        k = min(self._k, self.n_waypoints - 1)
-        wp = self.waypoints[k]
+        wp = self.waypoints[min(self._k, self.n_waypoints - 1)]
         dx, dy = wp[0] - x, wp[1] - y
         c, s = np.cos(yaw), np.sin(yaw)
         o[0] = c * dx + s * dy

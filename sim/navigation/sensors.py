@@ -28,8 +28,8 @@ from dataclasses import dataclass
 from typing import ClassVar, Generic, TypeVar
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from sim.frames import matrix_from_rotvec, rotvec_from_matrix
 from sim.state import VehicleState
 
 GRAVITY = 9.80665  # standard gravity, m/s²
@@ -483,7 +483,7 @@ class IMU(NavSensor[IMUConfig, IMUMeasurement]):
         R = state.rotation
         g_body = R.T @ np.array([0.0, 0.0, c.gravity])  # -(R^T g_world) with g_world = -g ez
         if c.gyro_averaged and dt > 0 and self._R_prev is not None:
-            omega = Rotation.from_matrix(self._R_prev.T @ R).as_rotvec() / dt
+            omega = rotvec_from_matrix(self._R_prev.T @ R) / dt
             sg = c.gyro_noise_density / math.sqrt(dt)
         else:
             omega = np.asarray(state.angular_velocity_body, float)
@@ -525,8 +525,8 @@ class DVL(NavSensor[DVLConfig, DVLMeasurement]):
         v_true = np.asarray(state.velocity_body, float)
         if c.averaged and self._prev is not None and t > self._prev[0]:
             t0, p0, R0 = self._prev
-            half = Rotation.from_rotvec(0.5 * Rotation.from_matrix(R0.T @ R).as_rotvec())
-            v_true = (R0 @ half.as_matrix()).T @ ((p - p0) / (t - t0))
+            half = matrix_from_rotvec(0.5 * rotvec_from_matrix(R0.T @ R))
+            v_true = (R0 @ half).T @ ((p - p0) / (t - t0))
             t_start = t0
         self._prev = (t, p.copy(), R)
         v = v_true + noise if lock else None

@@ -68,11 +68,19 @@ class CurrentField:
         # speed of mode k has rms |a_k| |k_k| / sqrt(2); normalise the sum to `variation`
         rms = np.sqrt(np.sum((a * kmag) ** 2) / 2.0)
         self.amp = a * (spec.variation / rms) if rms > 0 else a * 0
+        # (K, 5) modes k_x, k_y, ω, φ, amplitude, the layout of sim.physics_kernel (no
+        # rows when the current is uniform)
+        self.modes = np.ascontiguousarray(
+            np.column_stack([self.kx, self.ky, self.omega, self.phase, self.amp])[
+                : k if self.varying else 0
+            ]
+        )
 
     def velocity(self, pos: np.ndarray, t: float) -> np.ndarray:
         """World-frame current (N, 3) at positions (N, 3) and time t."""
         n = pos.shape[0]
-        out = np.broadcast_to(self.uniform, (n, 3)).copy()
+        out = np.empty((n, 3))
+        out[:] = self.uniform
         if self.varying:
             arg = pos[:, :1] * self.kx + pos[:, 1:2] * self.ky - self.omega * t + self.phase
             c = np.cos(arg) * self.amp  # (N, K)

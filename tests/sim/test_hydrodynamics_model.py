@@ -437,27 +437,3 @@ def test_world_converges_to_the_fossen_ode_at_first_order_in_the_timestep():
         errs.append(np.abs(v.state().position - sol.y[:3, -1]).max())
     assert errs[0] / errs[1] == pytest.approx(2.0, rel=0.1)
     assert errs[1] < 0.01
-
-
-@settings(max_examples=40, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.booleans())
-def test_quadratic_form_step_equals_explicit_reference(seed, with_current):
-    """The fast one-matmul evaluation equals the readable term-by-term reference."""
-    rng = np.random.default_rng(seed)
-    n = 3
-    params = _random_params(rng, n)
-    from sim.frames import matrix_from_wxyz
-
-    q = rng.normal(size=(n, 4))
-    rot = matrix_from_wxyz(q / np.linalg.norm(q, axis=1, keepdims=True))
-    pos = rng.normal(0, 1, (n, 3)) - [0, 0, 0.3]  # some vehicles breaking the surface
-    vel = rng.normal(0, 1, (n, 3))
-    om = rng.normal(0, 0.5, (n, 3))
-    cur = rng.normal(0, 0.5, (n, 3)) if with_current else None
-    tau = rng.normal(0, 20, (n, 6))
-    hb = HydroBatch(params, RHO, 9.81, 0.0)
-    fast = hb.body_wrench(rot, pos, vel, om, cur, tau)
-    acc_fast = hb.last_accel.copy()
-    ref = hb.body_wrench_explicit(rot, pos, vel, om, cur, tau)
-    np.testing.assert_allclose(fast, ref, rtol=1e-10, atol=1e-8)
-    np.testing.assert_allclose(acc_fast, hb.last_accel, rtol=1e-10, atol=1e-10)

@@ -1,0 +1,381 @@
+"""undersea/WaypointNav-v0 batched: N vehicles in one MuJoCo model, one compiled physics
+call per control step for all of them.
+
+    venv = gymnasium.make_vec("undersea/WaypointNav-v0", num_envs=64,
+                              vectorization_mode="vector_entry_point")
+
+Why one model with N vehicles (and not N MjData of one model): the compiled step of
+``sim.physics_kernel`` then advances every vehicle with one call (one ``mj_step1`` /
+``mj_step2`` pair per physics step for all N, the hydrodynamics of all N in one loop),
+and every per-vehicle quantity is a row of the same MjData arrays, read for all N with a
+handful of numpy operations. The vehicles do not see each other: vehicle–vehicle contacts
+are masked (conaffinity) and the vehicles' geoms are moved to geom group 3, outside the
+altitude ray's groups, so each vehicle's physics and its altitude ray are those of a
+single-vehicle world. MuJoCo's per-body arithmetic does not depend on the other bodies,
+so each vehicle follows the same trajectory as in ``WaypointNavEnv`` with the same seed
+and actions (tests/sim/envs/test_vector_nav.py). (A seabed contact is solved jointly
+with other vehicles' contacts at the same step; episodes end at 0.3 m altitude, before
+the hull touches.)
+
+Each sub-environment keeps its own random generator (seeded as ``gymnasium.Env.reset``
+seeds it), its own clock (accumulated as MuJoCo accumulates ``d.time`` from 0 at its
+reset), waypoints and reward state; the draws at reset are those of the single env, in
+the same order. Autoreset: ``AutoresetMode.NEXT_STEP`` (gymnasium's default): the step
+after an episode's end returns that sub-env's reset observation, reward 0, and ignores
+its action; its vehicle is put back at the start after the physics of that step, so it
+starts where a fresh single env starts. Truncation at ``max_episode_steps`` (registered
+3000) as the TimeLimit wrapper does.
+
+With ``nav_sensors=False`` (ideal navigation) observations, rewards and terminations are
+numpy operations over all N. With ``nav_sensors=True`` each sub-env polls its own
+``sim.navigation.NavSuite`` (per-env Python, as in the single env): correct, but the
+batch then runs at about the single env's rate per vehicle.
+
+Observation (N, 17), action (N, n_actuators), rewards and ``info`` terms: as
+``WaypointNavEnv`` (its docstring is the manual); ``info`` holds arrays over the N envs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import ClassVar
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+
+from sim.envs.base import VEHICLE_CHOICES, NavEstimate
+from sim.envs.waypoint_nav import sample_waypoints, waypoint_observation
+from sim.frames import wxyz_from_euler
+from sim.navigation import IMUConfig, NavSuite, NavSuiteConfig
+from sim.runner.lagged import apply_increment
+from sim.world import SeabedSpec, VehicleSpec, WorldSpec, build_world
+
+_DOWN = np.array([0.0, 0.0, -1.0])
+_RAY_GROUPS = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)
+
+
+class WaypointNavVectorEnv(VectorEnv):
+    """N ``WaypointNavEnv`` in one world; see the module docstring and WaypointNavEnv."""
+
+    metadata: ClassVar[dict] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        vehicle: str = "alister9",
+        n_waypoints: int = 3,
+        acceptance_radius: float = 4.0,
+        arena_size: float = 200.0,
+        water_depth: float = 30.0,
+        control_dt: float = 0.1,
+        physics_dt: float = 0.05,
+        nav_sensors: bool = True,
+        max_episode_steps: int | None = 3000,
+        render_mode: str | None = None,
+    ) -> None:
+        if int(num_envs) < 1:
+            raise ValueError(f"num_envs = {num_envs!r}; allowed: an integer >= 1")
+        if vehicle not in VEHICLE_CHOICES:
+            raise ValueError(f"vehicle = {vehicle!r}; allowed: {', '.join(VEHICLE_CHOICES)}")
+        if render_mode is not None:
+            raise ValueError(f"render_mode = {render_mode!r}; the batched env does not render")
+        if int(n_waypoints) < 1:
+            raise ValueError(f"n_waypoints = {n_waypoints!r}; allowed: an integer >= 1")
+        if not acceptance_radius > 0:
+            raise ValueError(f"acceptance_radius = {acceptance_radius!r}; allowed: > 0 m")
+        ratio = control_dt / physics_dt
+        if physics_dt <= 0 or abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise ValueError(
+                f"control_dt = {control_dt!r} must be a whole multiple of physics_dt = {physics_dt!r} (s)"
+            )
+        n = int(num_envs)
+        self.num_envs = n
+        self.vehicle_kind = vehicle
+        self.n_waypoints = int(n_waypoints)
+        self.acceptance_radius = float(acceptance_radius)
+        self.arena_size = float(arena_size)
+        self.water_depth = float(water_depth)
+        self.frame_skip = round(ratio)
+        self.nav_sensors = bool(nav_sensors)
+        self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
+        self.render_mode = None
+        self._start = np.array([0.0, 0.0, -self.water_depth / 2])
+        # the seabed and timestep of UnderseaEnv, N vehicles of one kind at the start
+        spec = WorldSpec(
+            seabed=SeabedSpec(
+                kind="flat",
+                size_xy=(arena_size, arena_size),
+                resolution=max(1.0, self.arena_size / 100.0),
+                depth=water_depth,
+            ),
+            vehicles=tuple(
+                VehicleSpec(vehicle, name=f"v{i}", position=(*xy, self._start[2]))
+                for i, xy in enumerate(_build_positions(n, self.arena_size))
+            ),
+            timestep=physics_dt,
+        )
+        self.world = w = build_world(spec)
+        self.vehicles = list(w.vehicles.values())
+        m = w.model
+        for h in self.vehicles:  # invisible to each other: no contacts, not on the altitude ray
+            g = np.flatnonzero(m.geom_bodyid == h.body_id)
+            m.geom_conaffinity[g] = 2
+            m.geom_group[g] = 3
+        self.n_actuators = self.vehicles[0].n_thrusters
+        self._qadr = np.array([h.qpos_adr for h in self.vehicles])[:, None] + np.arange(7)
+        self._vadr = np.array([h.dof_adr for h in self.vehicles])[:, None] + np.arange(6)
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, (self.n_actuators,), np.float32)
+        self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (17,), np.float32)
+        self.action_space = gym.vector.utils.batch_space(self.single_action_space, n)
+        self.observation_space = gym.vector.utils.batch_space(self.single_observation_space, n)
+        self._rngs: list[np.random.Generator] = [seeding.np_random()[0] for _ in range(n)]
+        self.waypoints = np.zeros((n, self.n_waypoints, 3))
+        self._k = np.zeros(n, dtype=np.int64)
+        self._prev_dist = np.zeros(n)
+        self._t = np.zeros(n)  # per-env clock, s
+        self._elapsed = np.zeros(n, dtype=np.int64)
+        self._done = np.zeros(n, dtype=bool)
+        self._nav_pose = np.zeros((n, 3))
+        self._navs: list[NavSuite | None] = [None] * n
+        self._meas = np.zeros((n, 9))  # v (3), r, depth, alt, roll, pitch, (unused)
+        self._ray_gid = np.zeros(1, dtype=np.int32)
+
+    # ------------------------------------------------------------------ state ---------
+    def _rays(self, pos: np.ndarray) -> np.ndarray:
+        """Altitude (N,) of each vehicle: the downward ray of ``VehicleHandle.state``."""
+        w = self.world
+        out = np.empty(len(pos))
+        for i, h in enumerate(self.vehicles):
+            dist = mujoco.mj_ray(
+                w.model, w.data, pos[i], _DOWN, _RAY_GROUPS, 1, h.body_id, self._ray_gid
+            )
+            out[i] = dist if dist >= 0 else pos[i, 2] - w.seabed_height(pos[i : i + 1, :2])[0]
+        return out
+
+    def _true(self) -> tuple[np.ndarray, ...]:
+        """Positions (N,3), quaternions (N,4), body velocities (N,3), angular velocities
+        (N,3), altitudes (N,) of all vehicles now."""
+        d = self.world.data
+        q = d.qpos[self._qadr]
+        qv = d.qvel[self._vadr]
+        pos, quat = q[:, :3], q[:, 3:]
+        w_, x, y, z = quat.T
+        # body->world rotation of a unit quaternion (as mju_quat2Mat); v_body = Rᵀ v_world
+        R = np.stack(
+            [
+                np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w_ * z), 2 * (x * z + w_ * y)], -1),
+                np.stack([2 * (x * y + w_ * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w_ * x)], -1),
+                np.stack([2 * (x * z - w_ * y), 2 * (y * z + w_ * x), 1 - 2 * (x * x + y * y)], -1),
+            ],
+            1,
+        )
+        vb = np.einsum("nij,ni->nj", R, qv[:, :3])
+        return pos, quat, vb, qv[:, 3:], self._rays(pos)
+
+    def _state_of(self, i: int):
+        """``VehicleState`` of env i on its own clock (the nav-sensor path)."""
+        return dataclasses.replace(self.vehicles[i].state(), t=float(self._t[i]))
+
+    # ------------------------------------------------------------------ reset ---------
+    def _reset_one(self, i: int, seed: int | None) -> None:
+        """The draws and the state of ``WaypointNavEnv.reset`` for env i."""
+        if seed is not None:
+            self._rngs[i] = seeding.np_random(seed)[0]
+        rng = self._rngs[i]
+        yaw = float(rng.uniform(-np.pi, np.pi))
+        w = self.world
+        h = self.vehicles[i]
+        lo, hi = w.thrusters.offsets[i], w.thrusters.offsets[i + 1]
+        w.thrusters.command[lo:hi] = 0.0
+        w.thrusters.level[lo:hi] = 0.0
+        w._external[i] = 0.0
+        h.set_pose(self._start, wxyz_from_euler(0.0, 0.0, yaw))  # mj_forward included
+        self._t[i] = 0.0
+        self._elapsed[i] = 0
+        nav_seed = int(rng.integers(2**63))
+        if self.nav_sensors:
+            st = self._state_of(i)
+            cfg = NavSuiteConfig(imu=IMUConfig.preset("tactical"))
+            self._navs[i] = NavSuite(cfg, np.random.default_rng(nav_seed), t0=st.t)
+            self._navs[i].poll(st)
+            alt = st.altitude
+        else:
+            alt = self._true()[4][i]
+        self._nav_pose[i] = (self._start[0], self._start[1], yaw)
+        self._meas[i, :8] = (0.0, 0.0, 0.0, 0.0, -self._start[2], alt, 0.0, 0.0)
+        self.waypoints[i] = sample_waypoints(
+            rng, self.n_waypoints, self.arena_size, self.water_depth
+        )
+        self._k[i] = 0
+        pos = self.world.data.qpos[self._qadr[i, :3]]
+        self._prev_dist[i] = float(np.linalg.norm(self.waypoints[i, 0] - pos))
+
+    def reset(self, *, seed=None, options=None):
+        """Reset all sub-envs; seed: an int (env i gets seed + i), a list of N ints or
+        Nones, or None."""
+        n = self.num_envs
+        if seed is None:
+            seeds = [None] * n
+        elif isinstance(seed, (int, np.integer)):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise ValueError(f"seed must be an int, None or {n} seeds, got {len(seeds)}")
+        for i, s in enumerate(seeds):
+            self._reset_one(i, s)
+        self._done[:] = False
+        pos, quat, vb, _, _ = self._true()
+        return self._obs(), self._info(pos, quat, vb, np.zeros(n, bool))
+
+    # ------------------------------------------------------------------ step ----------
+    def step(self, actions):
+        n = self.num_envs
+        a = np.asarray(actions, dtype=np.float64).reshape(n, -1)
+        if a.shape != (n, self.n_actuators):
+            raise ValueError(
+                f"actions must have shape ({n}, {self.n_actuators}), got {np.shape(actions)}"
+            )
+        if not np.all(np.isfinite(a)):
+            raise ValueError("actions must be finite (NaN/inf are rejected)")
+        u = np.clip(a, -1.0, 1.0)
+        clipped = np.any(u != a, axis=1)
+        w = self.world
+        resetting = self._done.copy()
+        u[resetting] = 0.0  # ignored: those envs are reset after this step's physics
+        w.thrusters.command[:] = u.ravel()
+        w.step(self.frame_skip)
+        dt = w.timestep
+        for _ in range(self.frame_skip):  # each env's clock, accumulated as d.time is
+            self._t += dt
+        self._elapsed += 1
+        pos, quat, vb, om, alt = self._true()
+        true_yaw = None
+        if self.nav_sensors:
+            self._poll_nav(~resetting)
+        else:
+            roll, pitch, yaw = _euler(quat)
+            true_yaw = yaw
+            self._meas[:, 0:3] = vb
+            self._meas[:, 3] = om[:, 2]
+            self._meas[:, 4] = -pos[:, 2]
+            self._meas[:, 5] = alt
+            self._meas[:, 6] = roll
+            self._meas[:, 7] = pitch
+            self._nav_pose = np.column_stack([pos[:, 0], pos[:, 1], yaw])
+        collided = (alt < 0.3) | (pos[:, 2] > -0.2)
+        reward, terms = self._rewards(pos, alt, u, collided)
+        terminated = collided | (self._k >= self.n_waypoints)
+        truncated = (
+            np.zeros(n, bool)
+            if self.max_episode_steps is None
+            else self._elapsed >= self.max_episode_steps
+        )
+        info = self._info(pos, quat, vb, collided, true_yaw)
+        info.update(terms)
+        info["action_clipped"] = clipped & ~resetting
+        for i in np.flatnonzero(resetting):
+            self._reset_one(i, None)
+        if resetting.any():  # the reset envs report their reset observation
+            reward[resetting] = 0.0
+            terminated[resetting] = False
+            truncated[resetting] = False
+            for key in terms:
+                info[key][resetting] = 0.0
+        self._done = terminated | truncated
+        return self._obs(), reward, terminated, truncated, info
+
+    def _poll_nav(self, active: np.ndarray) -> None:
+        """Nav-sensor path, per env (``UnderseaEnv._advance``)."""
+        for i in np.flatnonzero(active):
+            st = self._state_of(i)
+            nav = self._navs[i]
+            r = nav.poll(st)
+            m = self._meas[i]
+            if r.dvl:
+                dv = r.dvl[-1]
+                if dv.valid:
+                    m[0:3] = dv.velocity_body
+                m[5] = dv.altitude
+            if r.imu:
+                m[3] = r.imu[-1].gyro[2]
+            if r.depth:
+                m[4] = r.depth[-1].depth
+            if r.ahrs:
+                m[6], m[7] = r.ahrs[-1].roll, r.ahrs[-1].pitch
+            self._nav_pose[i] = apply_increment(self._nav_pose[i], nav.odometry(st.t).delta)
+
+    def _rewards(self, pos, alt, u, collided) -> tuple[np.ndarray, dict]:
+        """``WaypointNavEnv._get_rew`` for all envs (same terms, same order of the sum)."""
+        n = self.num_envs
+        idx = np.arange(n)
+        k = np.minimum(self._k, self.n_waypoints - 1)
+        dist = np.linalg.norm(self.waypoints[idx, k] - pos, axis=1)
+        progress = self._prev_dist - dist
+        reached = dist < self.acceptance_radius
+        terms = {
+            "reward_progress": progress,
+            "reward_waypoint": np.where(reached, 10.0, 0.0),
+            "reward_effort": -(0.01 * np.sum(u**2, axis=1)),
+            "reward_low_altitude": -np.where(alt < 2.0, 1.0, 0.0),
+            "reward_collision": np.where(collided, -50.0, 0.0),
+        }
+        reward = 0.0
+        for v in terms.values():
+            reward = reward + v
+        self._k = self._k + reached
+        more = reached & (self._k < self.n_waypoints)
+        k2 = np.minimum(self._k, self.n_waypoints - 1)
+        dist = np.where(more, np.linalg.norm(self.waypoints[idx, k2] - pos, axis=1), dist)
+        self._prev_dist = dist
+        return reward, terms
+
+    def _obs(self) -> np.ndarray:
+        idx = np.arange(self.num_envs)
+        wp = self.waypoints[idx, np.minimum(self._k, self.n_waypoints - 1)]
+        m = self._meas
+        return waypoint_observation(
+            self._nav_pose, wp, m[:, 0:3], m[:, 3], m[:, 4], m[:, 5], m[:, 6], m[:, 7],
+            self.n_waypoints - self._k,
+        )  # fmt: skip
+
+    def _info(self, pos, quat, vb, collided, yaw=None) -> dict:
+        yaw = _euler(quat)[2] if yaw is None else yaw
+        return {
+            "true_position": pos.copy(),
+            "true_yaw": yaw,
+            "true_velocity_body": vb,
+            "nav_position_error_m": np.linalg.norm(self._nav_pose[:, :2] - pos[:, :2], axis=1),
+            "time_s": self._t.copy(),
+            "waypoint_index": self._k.copy(),
+            "collided": collided,
+        }
+
+    def nav_estimates(self) -> list[NavEstimate]:
+        """What each vehicle's navigation knows (as ``UnderseaEnv.nav_estimate``)."""
+        m = self._meas
+        return [
+            NavEstimate(self._nav_pose[i].copy(), m[i, 0:3].copy(), *m[i, 3:8])
+            for i in range(self.num_envs)
+        ]
+
+
+def _build_positions(n: int, arena_size: float) -> list[tuple[float, float]]:
+    """n distinct (x, y) inside the arena to build the world with (the vehicles may not
+    overlap before their contacts are masked; every reset then puts them at the start)."""
+    side = int(np.ceil(np.sqrt(n)))
+    g = (np.arange(side) - (side - 1) / 2) * min(20.0, 0.8 * arena_size / side)
+    return [(float(g[i % side]), float(g[i // side])) for i in range(n)]
+
+
+def _euler(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(roll, pitch, yaw) (N,) of unit wxyz quaternions (N, 4): ``base._rpy`` vectorized."""
+    w, x, y, z = quat.T
+    return (
+        np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)),
+        np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0)),
+        np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)),
+    )
