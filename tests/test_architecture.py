@@ -1,6 +1,6 @@
 """The rooms of ARCHITECTURE.md, checked on the source: slam never imports sim or mujoco;
 sim imports slam only from the runner, the envs, the CLI, sweeps, datasets and the
-scenario schema (which validates against slam's registries); the envs
+scenario schema (which validates against slam's registries) and the figures; the envs
 use the runner only through its public names."""
 
 from __future__ import annotations
@@ -9,8 +9,9 @@ import ast
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-# scenario: the schema validates names and slam.params against slam's own registries
-SIM_MAY_IMPORT_SLAM = ("runner", "envs", "cli", "sweep", "dataset", "scenario")
+# scenario: the schema validates names and slam.params against slam's own registries;
+# viz: figures draw slam's results (bottom track, mosaics of real recordings)
+SIM_MAY_IMPORT_SLAM = ("runner", "envs", "cli", "sweep", "dataset", "scenario", "viz")
 
 
 def _imports(path: Path) -> set[str]:
