@@ -2,8 +2,9 @@
 end on each sonar frame, observations into SLAM; recording, metrics and figures.
 
 One control tick (``scenario.control_dt``): every vehicle's autopilot (sim.guidance)
-turns its true state into a body wrench demand (guidance uses the true state: the
-vehicles' own navigation filters are not modelled; SLAM runs beside it). Physics then
+turns its own navigation state (``NavSuite.navigation_state``: dead-reckoned x, y, yaw
+and the depth sensor; truth stays in metrics) into a body wrench demand; SLAM runs
+beside it. Physics then
 advances in whole physics steps to each sonar ping due inside the tick; at each ping the
 vehicle's nav suite is polled and its odometry cut at the ping time, so every sonar
 observation has an odometry node at exactly its time. Side-scan pings accumulate into
@@ -217,11 +218,18 @@ class RunResult:
         lines = [f"run {'complete' if self.complete else 'INTERRUPTED'}: {self.out_dir}"]
         for name, v in m.get("vehicles", {}).items():
             lm, po, de = v.get("landmarks", {}), v.get("pose", {}), v.get("detections", {})
+            inside = po.get("nees_in_95_interval")
             lines.append(
-                f"  {name}: ATE {_fmt(po.get('ate_m'))} m, NEES {_fmt(po.get('nees_mean'))}, "
-                f"landmarks {lm.get('n_estimated', 0)} (RMSE {_fmt(lm.get('rmse_m'))} m), "
+                f"  {name}: ATE SLAM {_fmt(po.get('ate_m'))} m vs dead reckoning "
+                f"{_fmt(po.get('dead_reckoning_ate_m'))} m, pose NEES {_fmt(po.get('nees_mean'))}"
+                f" ({'n/a' if inside is None else f'{100 * inside:.0f} %'} inside 95 %), "
+                f"landmarks {lm.get('n_estimated', 0)} (RMSE {_fmt(lm.get('rmse_m'))} m, "
+                f"NEES {_fmt(lm.get('landmark_nees_mean'))}, "
+                f"duplicated {lm.get('n_duplicated_objects', 0)}), "
                 f"detections {de.get('n_detections', 0)} (PPV {_fmt(de.get('ppv'))})"
             )
+            for w in v.get("navigation", {}).get("warnings", []):
+                lines.append(f"  WARNING {name}: {w}")
         t = m.get("timing", {})
         lines.append(
             f"  sim {m.get('sim_time_s', 0):.1f} s in {_fmt(t.get('wall_s'))} s (RTF {_fmt(t.get('real_time_factor'))})"
@@ -266,7 +274,13 @@ class ScenarioRun:
                 * 0.8
             )
             ap = autopilot_for(self.world, vs.name, mission_for(vs, swath), check=False)
-            nav = NavSuite(vs.nav.suite_config(), np.random.default_rng(s_nav), t0=self.world.time)
+            pose0 = [*vs.start_position[:2], math.radians(vs.start_yaw_deg)]
+            nav = NavSuite(
+                vs.nav.suite_config(),
+                np.random.default_rng(s_nav),
+                t0=self.world.time,
+                initial_pose=np.array(pose0),
+            )
             lag = None
             if vs.slam.estimator != "none" and any(
                 s.kind in ("sss", "fls", "msis") for s in sonars
@@ -382,7 +396,7 @@ class ScenarioRun:
                 t0 = time.perf_counter()
                 for v in self.vehicles:
                     st = v.handle.state()
-                    tau = v.autopilot.update(st, dt_c)
+                    tau = v.autopilot.update(v.nav.navigation_state(st), dt_c)  # own nav
                     v.handle.apply_wrench_demand(tau)
                 t0 = self.timer.add("guidance", t0)
                 t_end = w.time + dt_c
@@ -796,6 +810,7 @@ class ScenarioRun:
                 d["detections"]["nearest_detection_m"] = near
             if v.det_counts:
                 d["detections"]["pipeline_counts"] = dict(sorted(v.det_counts.items()))
+            d["navigation"] = v.nav.summary()
             if v.lagged is not None:
                 hist = v.lagged.history
                 if hist:
