@@ -132,8 +132,14 @@ class NavSpec:
             base[k] = d if "preset" in d or k not in base else {**base[k], **d}
         return base
 
-    def suite_config(self):
-        """The sim.navigation.NavSuiteConfig this spec describes."""
+    def sensor_config(self, k: str):
+        """The config of sensor ``k`` alone as this spec gives it (no vehicle payload),
+        None for a disabled ahrs: validates the sensor's own fields."""
+        return NavSpec(sensors={k: self.sensors[k]}).suite_config(only=k)
+
+    def suite_config(self, only: str | None = None):
+        """The sim.navigation.NavSuiteConfig this spec describes (``only``: return just
+        that sensor's config)."""
         from sim.navigation import (
             AHRSConfig,
             DepthConfig,
@@ -162,6 +168,8 @@ class NavSpec:
             cls = classes[k]
             base = NavSuiteConfig.__dataclass_fields__[k].default_factory()  # type: ignore[misc]
             kw[k] = cls.preset(preset, **d) if preset else replace(base, **d)
+        if only is not None:
+            return kw.get(only)
         return NavSuiteConfig(**kw, coast_velocity_std=self.coast_velocity_std)
 
 
@@ -509,7 +517,7 @@ def _parse_nav(d, path, kind: str | None = None) -> NavSpec:
         return spec
     for k in sensors:
         try:
-            NavSpec(sensors={k: sensors[k]}, kind=kind).suite_config()
+            spec.sensor_config(k)
         except (ValueError, TypeError) as exc:
             raise ScenarioError(f"scenario field '{path}.{k}': {exc}") from exc
     try:
