@@ -171,8 +171,10 @@ def test_standard_ekf_is_overconfident_where_fej_is_not(two_loop_run):
     """The reference's inconsistency (§6.1.2) shows in NEES: over two loops the standard
     EKF's mean pose NEES exceeds FEJ's (same data)."""
     spec = get_experiment("dense-loop")
-    std = run_once(spec, "aekf", 11, {}, sim_run=two_loop_run)
-    fej = run_once(spec, "aekf", 11, {"jacobians": "fej"}, sim_run=two_loop_run)
+    std = run_once(spec, "aekf", 11, {"preset": "reference"}, sim_run=two_loop_run)
+    fej = run_once(
+        spec, "aekf", 11, {"preset": "reference", "jacobians": "fej"}, sim_run=two_loop_run
+    )
     assert np.nanmean(fej.nees) < np.nanmean(std.nees)
     assert fej.frac_in_3sigma >= std.frac_in_3sigma
 
