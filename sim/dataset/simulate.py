@@ -186,10 +186,10 @@ class ShardSimulation:
         run, w, tracks = self.run, self.run.world, self.tracks
         dt_c = self.scn.control_dt
         n_tick = max(1, round(dt_c / w.timestep))
-        pilots = [(v.handle, v.autopilot) for v in run.vehicles]
+        pilots = [(v.handle, v.autopilot, None) for v in run.vehicles]  # truth: no nav here
 
         for _ in range(math.floor(offset_s / dt_c + 1e-9)):
-            for handle, ap in pilots:
+            for handle, ap, _ in pilots:
                 handle.apply_wrench_demand(ap.update(handle.state(), dt_c))
             w.step(n_tick)
         t0 = w.time

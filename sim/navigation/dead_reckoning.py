@@ -37,7 +37,11 @@ residual bias is small and the heading error is bounded, so increments are close
 independent. Without aiding (``ahrs_yaw_std=None``) the heading is the gyro integral.
 
 Covariance: exact linear propagation of an augmented error state
-``e = [dp (2), e_psi, e0, n_v (3), n_w (2), b_w (2)]`` — the position error of the interval, the
+``e = [dp (2), e_psi, e0, n_v (3), n_w (2), b_w (2), s, m, b_v (3), k (4), g]`` — the
+sensor-model constants (DVL scale factor s, yaw misalignment m and offset b_v; compass
+deviation coefficients k) and the compass drift g are "consider" states: they carry the
+datasheet errors of sensors.py into the covariance, and the compass update's
+innovation is ``−e_psi + basis(ψ)·k + g + v``. Before them: the position error of the interval, the
 heading error now ``e_psi`` and a clone ``e0`` of it taken at the start of the interval
 (stochastic cloning: the increment's heading error is ``e_psi − e0``; without aiding
 both start at zero and ``e0`` stays zero, so ``e_psi`` is the heading-change error; with
@@ -53,7 +57,7 @@ out — and the held noise states are not worth estimating), with the Joseph-for
 covariance, which is exact for any gain. Without DVL lock the last velocity is held and
 its error random-walks with ``coast_velocity_std`` (m/s/√s). Not modelled: roll/pitch
 noise of the levelling (second order for a near-level vehicle), the x gyro (it does not
-enter the yaw rate), DVL scale-factor error, a constant compass offset
+enter the yaw rate), a constant compass offset
 (``AHRSConfig.yaw_bias`` — it cancels in heading differences), extrapolation error of
 the held samples inside an increment that ends between two samples (it matters only for
 increments much shorter than the DVL ping interval: sub-millimetre errors, against a
@@ -92,7 +96,12 @@ _E0 = 3
 _NV = slice(4, 7)
 _NW = slice(7, 9)  # held gyro noise, body y and z
 _B = slice(9, 11)  # residual gyro bias, body y and z
-_N = 11
+_S = 11  # DVL scale-factor error (constant)
+_M = 12  # DVL yaw misalignment, rad (constant)
+_BV = slice(13, 16)  # DVL velocity offset, body frame, m/s (constant)
+_K = slice(16, 20)  # compass deviation coefficients a1, b1, a2, b2, rad (constant)
+_G = 20  # compass Gauss–Markov drift, rad
+_N = 21
 # states a compass update corrects (the others are "consider" states)
 _UPDATED = np.zeros(_N, bool)
 _UPDATED[[0, 1, 2, 9, 10]] = True
@@ -142,8 +151,17 @@ class DeadReckoningConfig:
     initial_velocity_std : std of the (zero) velocity assumed before the first lock, m/s.
     gyro_bias_estimate : bias subtracted from the z gyro, rad/s (a calibration value;
                          with heading aiding, the initial value of the estimated bias).
-    ahrs_yaw_std       : std of the AHRS/compass yaw, rad, fused into the heading; None
-                         (default) = no heading aiding, gyro-only heading.
+    ahrs_yaw_std       : std of the AHRS/compass yaw white noise, rad, fused into the
+                         heading; None (default) = no heading aiding, gyro-only heading.
+    dvl_scale_std, dvl_misalignment_std, dvl_bias_std : the DVL's constant errors
+                         (DVLConfig.scale_factor_std, misalignment_std rad,
+                         velocity_bias_std m/s), carried as error states.
+    compass_hard_iron_std, compass_soft_iron_std, compass_drift_std (rad),
+    compass_drift_tau_s (s) : the compass deviation and drift of AHRSConfig, carried as
+                         error states of the heading aiding.
+    gyro_bias_instability, gyro_bias_tau_s : the gyro's Gauss–Markov bias instability
+                         (rad/s, s), propagated as the random walk of the same short-time
+                         diffusion 2σ²/τ (conservative beyond τ).
     """
 
     dvl_velocity_std: float
@@ -155,8 +173,21 @@ class DeadReckoningConfig:
     gyro_bias_estimate: float = 0.0
     ahrs_yaw_std: float | None = None
     gyro_noise_density: float | None = None
+    dvl_scale_std: float = 0.0
+    dvl_misalignment_std: float = 0.0
+    dvl_bias_std: float = 0.0
+    compass_hard_iron_std: float = 0.0
+    compass_soft_iron_std: float = 0.0
+    compass_drift_std: float = 0.0
+    compass_drift_tau_s: float = 600.0
+    gyro_bias_instability: float = 0.0
+    gyro_bias_tau_s: float = 100.0
 
     def __post_init__(self) -> None:
+        for n in ("compass_drift_tau_s", "gyro_bias_tau_s"):
+            v = getattr(self, n)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"DeadReckoningConfig.{n} must be a finite number > 0, got {v!r}")
         for n in (
             "dvl_velocity_std",
             "gyro_sample_std",
@@ -164,6 +195,13 @@ class DeadReckoningConfig:
             "gyro_bias_rw",
             "coast_velocity_std",
             "initial_velocity_std",
+            "dvl_scale_std",
+            "dvl_misalignment_std",
+            "dvl_bias_std",
+            "compass_hard_iron_std",
+            "compass_soft_iron_std",
+            "compass_drift_std",
+            "gyro_bias_instability",
         ):
             v = getattr(self, n)
             if not (math.isfinite(v) and v >= 0):
@@ -191,15 +229,29 @@ class DeadReckoningConfig:
     ) -> DeadReckoningConfig:
         """The noise the configured DVL and IMU (and AHRS, if given: heading aiding with
         its yaw noise) actually produce."""
+        compass = {}
+        if ahrs is not None:
+            compass = dict(
+                compass_hard_iron_std=ahrs.hard_iron_std,
+                compass_soft_iron_std=ahrs.soft_iron_std,
+                compass_drift_std=ahrs.drift_std,
+                compass_drift_tau_s=ahrs.drift_tau_s,
+            )
         return cls(
             dvl_velocity_std=dvl.velocity_noise_std,
             gyro_sample_std=imu.gyro_noise_density * math.sqrt(imu.rate_hz),
-            gyro_bias_std=imu.gyro_bias_init_std,
+            gyro_bias_std=math.hypot(imu.gyro_bias_init_std, imu.gyro_bias_instability),
             gyro_bias_rw=imu.gyro_bias_rw,
             coast_velocity_std=coast_velocity_std,
             initial_velocity_std=initial_velocity_std,
             ahrs_yaw_std=None if ahrs is None else ahrs.yaw_noise_std,
             gyro_noise_density=imu.gyro_noise_density if imu.gyro_averaged else None,
+            dvl_scale_std=dvl.scale_factor_std,
+            dvl_misalignment_std=dvl.misalignment_std,
+            dvl_bias_std=dvl.velocity_bias_std,
+            gyro_bias_instability=imu.gyro_bias_instability,
+            gyro_bias_tau_s=imu.gyro_bias_tau_s,
+            **compass,
         )
 
 
@@ -255,6 +307,13 @@ class DeadReckoner:
         self.P = np.zeros((_N, _N))
         self.P[_B, _B] = np.eye(2) * config.gyro_bias_std**2
         self.P[_NV, _NV] = np.eye(3) * config.initial_velocity_std**2
+        self.P[_S, _S] = config.dvl_scale_std**2
+        self.P[_M, _M] = config.dvl_misalignment_std**2
+        self.P[_BV, _BV] = np.eye(3) * config.dvl_bias_std**2
+        self.P[_K, _K] = np.diag(
+            [config.compass_hard_iron_std**2] * 2 + [config.compass_soft_iron_std**2] * 2
+        )
+        self.P[_G, _G] = config.compass_drift_std**2
         self.n_dvl = 0
         self.n_dvl_dropped = 0
         self._t_v: float | None = None  # time of the held DVL sample
@@ -288,9 +347,17 @@ class DeadReckoner:
         F[_P, _B] = np.outer(Jdp, cz) * 0.5 * h
         F[_PHI, _NW] = cz * h
         F[_PHI, _B] = cz * h  # the bias adds to the measured rate like its noise
+        # constant DVL errors: v_meas - v = s v + m Jz v + b (first order)
+        F[_P, _S] = R @ (T @ self.v) * h
+        F[_P, _M] = R @ (T @ np.array([-self.v[1], self.v[0], 0.0])) * h
+        F[_P, _BV] = R @ T * h
+        a = math.exp(-h / c.compass_drift_tau_s)
+        F[_G, _G] = a
         self.P = F @ self.P @ F.T
-        if c.gyro_bias_rw > 0:
-            self.P[_B, _B] += np.eye(2) * c.gyro_bias_rw**2 * h
+        self.P[_G, _G] += c.compass_drift_std**2 * (1.0 - a * a)
+        q_b = c.gyro_bias_rw**2 + 2.0 * c.gyro_bias_instability**2 / c.gyro_bias_tau_s
+        if q_b > 0:
+            self.P[_B, _B] += np.eye(2) * q_b * h
         if self.coasting and c.coast_velocity_std > 0:
             self.P[_NV, _NV] += np.eye(3) * c.coast_velocity_std**2 * h
         self.p = self.p + dp
@@ -434,15 +501,17 @@ class DeadReckoner:
             raise ValueError(f"AHRS yaw must be finite, got {yaw!r}")
         if self.psi0 is None:
             self.psi0 = _wrap(yaw - self.phi)
+            hc = self._compass_row(yaw)
             A = np.eye(_N)
-            A[_PHI, :] = 0.0
-            A[_E0, _PHI] = -1.0
+            A[_PHI, :] = hc
+            A[_E0, :] += hc
+            A[_E0, _PHI] -= 1.0
             self.P = A @ self.P @ A.T
             g = np.zeros(_N)
             g[_PHI] = g[_E0] = 1.0
             self.P += var * np.outer(g, g)
             return
-        h = np.zeros(_N)
+        h = self._compass_row(self.psi0 + self.phi)
         h[_PHI] = -1.0
         y = _wrap(yaw - self.psi0 - self.phi)
         Ph = self.P @ h
@@ -457,6 +526,19 @@ class DeadReckoner:
         A = np.eye(_N) - np.outer(K, h)
         self.P = A @ self.P @ A.T + np.outer(K, K) * var
 
+    @staticmethod
+    def _compass_row(psi: float) -> np.ndarray:
+        """Row of the compass error ``basis(psi)·k + g`` in the error state."""
+        h = np.zeros(_N)
+        h[_K] = [math.sin(psi), math.cos(psi), math.sin(2 * psi), math.cos(2 * psi)]
+        h[_G] = 1.0
+        return h
+
+    def running(self) -> tuple[np.ndarray, float]:
+        """Displacement (2,) m and heading change (rad) since the last cut, in the heading
+        frame at the cut, up to the last measurement (no extrapolation, no cut)."""
+        return self.p.copy(), float(self.phi)
+
     def add_all(self, measurements) -> None:
         """Add measurements in time order; at equal times the AHRS comes last, so the
         compass is compared with a heading whose last span is already interpolated from
@@ -465,14 +547,20 @@ class DeadReckoner:
         for m in sorted(measurements, key=lambda m: (m.t, isinstance(m, AHRSMeasurement))):
             self.add(m)
 
-    def increment(self, t: float) -> OdometryIncrement:
-        """Integrate to ``t`` and return ``[dx, dy, dphi]`` since the last cut, with cov."""
+    def covariance_since_cut(self, t: float) -> np.ndarray:
+        """Integrate to ``t`` and return the (3, 3) covariance of ``[dx, dy, dphi]`` since
+        the last cut (no cut: a reckoner never cut gives the exact covariance of the
+        whole run's dead-reckoned pose, in the frame of its start)."""
         self._propagate(float(t))
         M = np.zeros((3, _N))
         M[0, 0] = M[1, 1] = M[2, _PHI] = 1.0
         M[2, _E0] = -1.0  # heading-change error e_psi − e0
         cov = M @ self.P @ M.T
-        cov = 0.5 * (cov + cov.T)
+        return 0.5 * (cov + cov.T)
+
+    def increment(self, t: float) -> OdometryIncrement:
+        """Integrate to ``t`` and return ``[dx, dy, dphi]`` since the last cut, with cov."""
+        cov = self.covariance_since_cut(t)
         inc = OdometryIncrement(
             delta=np.array([self.p[0], self.p[1], _wrap(self.phi)]),
             cov=cov,

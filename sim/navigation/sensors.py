@@ -54,6 +54,22 @@ __all__ = [
 ]
 
 
+# --------------------------------------------------------------------------- rotations
+
+
+def rotvec_from_matrix(R: np.ndarray) -> np.ndarray:
+    """Rotation vector (3,) rad of a rotation matrix (3, 3) whose angle is below ~3 rad
+    (the rotation between two sensor samples); scalar maths, ~20× faster than
+    ``scipy.spatial.transform.Rotation`` for one matrix. Near zero angle the first-order
+    term ``vee(R − Rᵀ)/2`` is exact to O(θ³)."""
+    c = min(1.0, max(-1.0, 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)))
+    w = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    theta = math.acos(c)
+    if theta < 1e-6:
+        return w
+    return w * (theta / math.sin(theta))
+
+
 # --------------------------------------------------------------------------- validation
 
 
@@ -76,6 +92,12 @@ def _check_finite(obj, *names: str) -> None:
         v = getattr(obj, n)
         if not (isinstance(v, int | float) and math.isfinite(v)):
             raise ValueError(f"{type(obj).__name__}.{n} must be a finite number, got {v!r}")
+
+
+def _check_at_most(obj, name: str, hi: float, what: str) -> None:
+    v = getattr(obj, name)
+    if v > hi:
+        raise ValueError(f"{type(obj).__name__}.{name} must be <= {hi:.6g} ({what}), got {v!r}")
 
 
 def _check_probability(obj, name: str) -> None:
@@ -106,6 +128,9 @@ class IMUConfig:
     accel_noise_density     : velocity random walk, m/s²/√Hz.
     accel_bias_rw           : accelerometer bias random walk, m/s³/√Hz.
     accel_bias_init_std     : std of the turn-on accelerometer bias, m/s².
+    gyro_bias_instability   : in-run bias instability (datasheet "bias stability"),
+                              rad/s: std of a first-order Gauss–Markov gyro bias
+                              component with correlation time ``gyro_bias_tau_s``, s.
     gravity                 : magnitude of gravity in the specific force, m/s².
     gyro_averaged           : True (default): each gyro sample is the mean body rate over
                               the interval since the previous sample — a strapdown IMU's
@@ -126,6 +151,8 @@ class IMUConfig:
     accel_bias_init_std: float = 0.02
     gravity: float = GRAVITY
     gyro_averaged: bool = True
+    gyro_bias_instability: float = 0.0
+    gyro_bias_tau_s: float = 100.0
 
     PRESETS: ClassVar[dict[str, dict]] = {
         # Consumer MEMS (BMI088 / MPU-class datasheet figures): gyro 0.014 °/s/√Hz
@@ -153,6 +180,23 @@ class IMUConfig:
             accel_noise_density=1.2e-3,
             accel_bias_rw=1.0e-5,
             accel_bias_init_std=0.01,
+            gyro_bias_instability=2.4e-7,
+            gyro_bias_tau_s=300.0,
+        ),
+        # Industrial MEMS AHRS gyro (Xsens MTi-300 datasheet, Movella 2023): noise density
+        # 0.01 °/s/√Hz = 1.75e-4 rad/s/√Hz, in-run bias stability 10 °/h = 4.8e-5 rad/s,
+        # accelerometer 60 µg/√Hz and 15 µg in-run. Turn-on bias 0.2 °/s and the 100 s
+        # correlation time: assumptions (not on the datasheet).
+        "mti300": dict(
+            rate_hz=100.0,
+            gyro_noise_density=1.75e-4,
+            gyro_bias_rw=0.0,
+            gyro_bias_init_std=3.5e-3,
+            accel_noise_density=5.9e-4,
+            accel_bias_rw=1.0e-5,
+            accel_bias_init_std=0.01,
+            gyro_bias_instability=4.8e-5,
+            gyro_bias_tau_s=100.0,
         ),
     }
 
@@ -167,7 +211,9 @@ class IMUConfig:
             "accel_noise_density",
             "accel_bias_rw",
             "accel_bias_init_std",
+            "gyro_bias_instability",
         )
+        _check_positive(self, "gyro_bias_tau_s")
         if not isinstance(self.gyro_averaged, bool):
             raise ValueError(
                 f"IMUConfig.gyro_averaged must be True or False, got {self.gyro_averaged!r}"
@@ -175,7 +221,7 @@ class IMUConfig:
 
     @classmethod
     def preset(cls, name: str, **overrides) -> IMUConfig:
-        """``"consumer"`` or ``"tactical"``, with keyword overrides."""
+        """``"consumer"``, ``"mti300"`` or ``"tactical"``, with keyword overrides."""
         return cls(**{**_preset(cls, cls.PRESETS, name), **overrides})
 
 
@@ -189,6 +235,12 @@ class DVLConfig:
     max_altitude     : no bottom lock above this altitude, m.
     min_altitude     : no bottom lock below this altitude (blanking distance), m.
     dropout_prob     : probability that a ping inside the lock window still loses lock.
+    scale_factor_std : std of the DVL's constant fractional scale-factor error (drawn at
+                       turn-on; the datasheet's "long-term accuracy ±x %"), dimensionless.
+    misalignment_std : std of the constant residual yaw misalignment between the DVL and
+                       the heading reference after calibration, rad.
+    velocity_bias_std: std of a constant velocity offset per axis (the "± y cm/s" term of
+                       the long-term accuracy), m/s.
     averaged         : False (default): the instantaneous velocity of the state. True:
                        each ping reports the mean body velocity over the time since the
                        previous ping (position change over that time, rotated by the
@@ -209,32 +261,56 @@ class DVLConfig:
     min_altitude: float = 0.5
     dropout_prob: float = 0.01
     averaged: bool = False
+    scale_factor_std: float = 0.0
+    misalignment_std: float = 0.0
+    velocity_bias_std: float = 0.0
 
     PRESETS: ClassVar[dict[str, dict]] = {
-        # Typical 600 kHz bottom-tracking DVL (Teledyne RDI Workhorse/Pathfinder 600 class):
-        # ~90 m bottom-track range, 0.5 m blanking, ~0.3-0.5 cm/s single-ping std at
-        # survey speed, up to ~7 Hz.
+        # 600 kHz bottom-tracking DVL (Teledyne RDI Workhorse Navigator 600 datasheet):
+        # bottom track 0.7-90 m, long-term accuracy ±0.2 % ±0.1 cm/s, ~0.5 cm/s single-
+        # ping std at survey speed, up to ~7 Hz. Misalignment 0.1° after an in-situ
+        # alignment calibration (Kinsey & Whitcomb, IEEE JOE 32(2), 2007: residuals of
+        # ~0.1° after calibration, degrees before).
         "rdi600": dict(
             rate_hz=5.0,
             velocity_noise_std=0.005,
             max_altitude=90.0,
-            min_altitude=0.5,
+            min_altitude=0.7,
             dropout_prob=0.01,
+            scale_factor_std=0.002,
+            misalignment_std=math.radians(0.1),
+            velocity_bias_std=0.001,
         ),
-        # Small 1 MHz DVL (Water Linked A50 class): 50 m range, ~1 cm/s noise.
+        # Small 1 MHz DVL (Water Linked DVL A50 datasheet): 0.05-50 m, long-term accuracy
+        # ±1 % (standard firmware; ±0.1 % "performance"), ±0.1 cm/s, ~1 cm/s single ping,
+        # 4-15 Hz. Misalignment 0.5°: hand-mounted on a small ROV without in-situ
+        # calibration (assumption, between Kinsey & Whitcomb's calibrated and raw figures).
         "a50": dict(
             rate_hz=8.0,
             velocity_noise_std=0.01,
             max_altitude=50.0,
             min_altitude=0.05,
             dropout_prob=0.02,
+            scale_factor_std=0.01,
+            misalignment_std=math.radians(0.5),
+            velocity_bias_std=0.001,
         ),
     }
 
     def __post_init__(self) -> None:
         _check_positive(self, "rate_hz", "max_altitude")
-        _check_nonneg(self, "delay_s", "velocity_noise_std", "min_altitude")
+        _check_nonneg(
+            self,
+            "delay_s",
+            "velocity_noise_std",
+            "min_altitude",
+            "scale_factor_std",
+            "misalignment_std",
+            "velocity_bias_std",
+        )
         _check_probability(self, "dropout_prob")
+        _check_at_most(self, "scale_factor_std", 0.1, "a 10 % scale error is no DVL")
+        _check_at_most(self, "misalignment_std", math.radians(10.0), "10° (in rad)")
         if not isinstance(self.averaged, bool):
             raise ValueError(f"DVLConfig.averaged must be True or False, got {self.averaged!r}")
         if self.min_altitude >= self.max_altitude:
@@ -282,10 +358,16 @@ class DepthConfig:
 
 @dataclass(frozen=True)
 class AHRSConfig:
-    """Compass / attitude-heading reference: roll, pitch, yaw with white noise.
+    """Compass / attitude-heading reference: roll, pitch, yaw.
 
-    yaw_noise_std, roll_pitch_noise_std : rad.  yaw_bias : constant heading offset, rad
-    (uncompensated deviation / declination).
+    The yaw error is ``yaw_bias + a1 sin ψ + b1 cos ψ + a2 sin 2ψ + b2 cos 2ψ + g(t) + n``:
+    a constant offset (uncompensated declination), the one-cycle (hard-iron) and two-cycle
+    (soft-iron) compass deviation residual left by calibration — coefficients a1, b1 ~
+    N(0, hard_iron_std²) and a2, b2 ~ N(0, soft_iron_std²) drawn at turn-on, so each
+    contributes its std as RMS over headings — a slow first-order Gauss–Markov drift g of
+    std ``drift_std`` and correlation time ``drift_tau_s`` (magnetic disturbances,
+    temperature), and white noise n of std ``yaw_noise_std``. All angles in rad.
+    ``heading_rms`` is the total RMS heading error, the figure an AHRS datasheet quotes.
     """
 
     rate_hz: float = 10.0
@@ -293,22 +375,57 @@ class AHRSConfig:
     yaw_noise_std: float = math.radians(1.0)
     roll_pitch_noise_std: float = math.radians(0.2)
     yaw_bias: float = 0.0
+    hard_iron_std: float = 0.0
+    soft_iron_std: float = 0.0
+    drift_std: float = 0.0
+    drift_tau_s: float = 600.0
 
     PRESETS: ClassVar[dict[str, dict]] = {
-        # Fluxgate/MEMS AHRS: 1° heading, 0.2° roll/pitch.
+        # MEMS AHRS with magnetometer (Xsens MTi-300 datasheet, Movella 2023: heading
+        # 1 deg RMS, roll/pitch 0.2 deg RMS). The split of the 1° into white noise 0.3°,
+        # hard-iron residual 0.7°, soft-iron 0.3° and a 0.5° drift over 10 min is an
+        # assumption (RMS total 0.96°); LORD 3DM-GX5-25 quotes the same class (±0.8°).
         "mems_ahrs": dict(
-            rate_hz=10.0, yaw_noise_std=math.radians(1.0), roll_pitch_noise_std=math.radians(0.2)
+            rate_hz=10.0,
+            yaw_noise_std=math.radians(0.3),
+            roll_pitch_noise_std=math.radians(0.2),
+            hard_iron_std=math.radians(0.7),
+            soft_iron_std=math.radians(0.3),
+            drift_std=math.radians(0.5),
+            drift_tau_s=600.0,
         ),
-        # Gyrocompass (FOG INS class): 0.05° heading, 0.01° roll/pitch.
+        # Gyrocompass (FOG INS class, e.g. iXblue PHINS: 0.01° sec(lat) heading; 0.05° here
+        # at mid latitude), 0.01° roll/pitch; no magnetic deviation.
         "gyrocompass": dict(
             rate_hz=20.0, yaw_noise_std=math.radians(0.05), roll_pitch_noise_std=math.radians(0.01)
         ),
     }
 
     def __post_init__(self) -> None:
-        _check_positive(self, "rate_hz")
-        _check_nonneg(self, "delay_s", "yaw_noise_std", "roll_pitch_noise_std")
+        _check_positive(self, "rate_hz", "drift_tau_s")
+        _check_nonneg(
+            self,
+            "delay_s",
+            "yaw_noise_std",
+            "roll_pitch_noise_std",
+            "hard_iron_std",
+            "soft_iron_std",
+            "drift_std",
+        )
         _check_finite(self, "yaw_bias")
+        for n in ("yaw_noise_std", "hard_iron_std", "soft_iron_std", "drift_std"):
+            _check_at_most(self, n, math.radians(30.0), "30° (in rad): no heading source")
+
+    @property
+    def heading_rms(self) -> float:
+        """Total RMS heading error over headings, rad (the datasheet's heading accuracy)."""
+        return math.sqrt(
+            self.yaw_bias**2
+            + self.yaw_noise_std**2
+            + self.hard_iron_std**2
+            + self.soft_iron_std**2
+            + self.drift_std**2
+        )
 
     @classmethod
     def preset(cls, name: str, **overrides) -> AHRSConfig:
@@ -452,7 +569,8 @@ class NavSensor(Generic[C, M]):
 class IMU(NavSensor[IMUConfig, IMUMeasurement]):
     """Gyro and accelerometer with white noise and random-walk biases.
 
-    gyro  = omega_body + b_g + n_g,          n_g ~ N(0, (N_g² rate) I)
+    gyro  = omega_body + b_g + g_g + n_g,    n_g ~ N(0, (N_g² rate) I)
+    (g_g: Gauss–Markov bias instability, std ``gyro_bias_instability``, time ``gyro_bias_tau_s``)
     f     = a_body - R_bwᵀ g_world + b_a + n_a, g_world = (0, 0, -g)
     b(k+1) = b(k) + N(0, B² Δt I) between samples.
 
@@ -467,6 +585,8 @@ class IMU(NavSensor[IMUConfig, IMUMeasurement]):
         super().__init__(config, rng)
         self.gyro_bias = rng.normal(0.0, config.gyro_bias_init_std, 3)
         self.accel_bias = rng.normal(0.0, config.accel_bias_init_std, 3)
+        # Gauss–Markov in-run component, started in its stationary distribution
+        self.gyro_bias_gm = rng.normal(0.0, config.gyro_bias_instability, 3)
         self._R_prev: np.ndarray | None = None
 
     def _sample(self, state: VehicleState) -> IMUMeasurement:
@@ -479,6 +599,11 @@ class IMU(NavSensor[IMUConfig, IMUMeasurement]):
             self.accel_bias = self.accel_bias + self.rng.normal(
                 0.0, c.accel_bias_rw * math.sqrt(dt), 3
             )
+            if c.gyro_bias_instability > 0:
+                a = math.exp(-dt / c.gyro_bias_tau_s)
+                self.gyro_bias_gm = a * self.gyro_bias_gm + self.rng.normal(
+                    0.0, c.gyro_bias_instability * math.sqrt(1.0 - a * a), 3
+                )
         sq = math.sqrt(c.rate_hz)
         R = state.rotation
         g_body = R.T @ np.array([0.0, 0.0, c.gravity])  # -(R^T g_world) with g_world = -g ez
@@ -489,7 +614,7 @@ class IMU(NavSensor[IMUConfig, IMUMeasurement]):
             omega = np.asarray(state.angular_velocity_body, float)
             sg = c.gyro_noise_density * sq
         self._R_prev = R
-        gyro = omega + self.gyro_bias + self.rng.normal(0.0, sg, 3)
+        gyro = omega + self.gyro_bias + self.gyro_bias_gm + self.rng.normal(0.0, sg, 3)
         f = (
             np.asarray(state.acceleration_body, float)
             + g_body
@@ -500,7 +625,9 @@ class IMU(NavSensor[IMUConfig, IMUMeasurement]):
 
 
 class DVL(NavSensor[DVLConfig, DVLMeasurement]):
-    """Bottom-track velocity over ground in the body frame; lock only for
+    """Bottom-track velocity over ground in the body frame,
+    ``v = (1 + s) Rz(m) v_true + b + n`` with the turn-on constants s (scale factor),
+    m (yaw misalignment) and b (offset) of the config; lock only for
     ``min_altitude <= altitude <= max_altitude`` (unknown altitude → no lock), and each
     ping inside the window drops out with ``dropout_prob``. With ``averaged`` the
     velocity is the mean over the time since the previous ping (see DVLConfig)."""
@@ -508,6 +635,12 @@ class DVL(NavSensor[DVLConfig, DVLMeasurement]):
     def __init__(self, config: DVLConfig, rng: np.random.Generator) -> None:
         super().__init__(config, rng)
         self._prev: tuple[float, np.ndarray, np.ndarray] | None = None
+        # turn-on constants: scale factor, yaw misalignment, velocity offset
+        self.scale_error = float(rng.normal(0.0, config.scale_factor_std))
+        self.misalignment = float(rng.normal(0.0, config.misalignment_std))
+        self.velocity_bias = rng.normal(0.0, config.velocity_bias_std, 3)
+        c, s = math.cos(self.misalignment), math.sin(self.misalignment)
+        self._M = (1.0 + self.scale_error) * np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
     def _sample(self, state: VehicleState) -> DVLMeasurement:
         c = self.config
@@ -529,7 +662,7 @@ class DVL(NavSensor[DVLConfig, DVLMeasurement]):
             v_true = (R0 @ half).T @ ((p - p0) / (t - t0))
             t_start = t0
         self._prev = (t, p.copy(), R)
-        v = v_true + noise if lock else None
+        v = self._M @ v_true + self.velocity_bias + noise if lock else None
         return DVLMeasurement(t=t, velocity_body=v, valid=lock, altitude=alt, t_start=t_start)
 
 
@@ -545,13 +678,32 @@ class DepthSensor(NavSensor[DepthConfig, DepthMeasurement]):
 
 
 class AHRS(NavSensor[AHRSConfig, AHRSMeasurement]):
-    """Roll, pitch, yaw with white noise; yaw with a constant bias, wrapped to (-pi, pi]."""
+    """Roll, pitch with white noise; yaw with the deviation, drift and noise of
+    :class:`AHRSConfig`, wrapped to (-pi, pi]. ``deviation`` (4,) holds the turn-on
+    coefficients [a1, b1, a2, b2], ``drift`` the Gauss–Markov state, rad."""
+
+    def __init__(self, config: AHRSConfig, rng: np.random.Generator) -> None:
+        super().__init__(config, rng)
+        sd = [config.hard_iron_std] * 2 + [config.soft_iron_std] * 2
+        self.deviation = rng.normal(0.0, 1.0, 4) * np.array(sd)
+        self.drift = float(rng.normal(0.0, config.drift_std))
+
+    def yaw_error(self, yaw: float) -> float:
+        """Deterministic part of the yaw error at true heading ``yaw``, rad."""
+        basis = np.array([math.sin(yaw), math.cos(yaw), math.sin(2 * yaw), math.cos(2 * yaw)])
+        return float(self.config.yaw_bias + basis @ self.deviation + self.drift)
 
     def _sample(self, state: VehicleState) -> AHRSMeasurement:
         c = self.config
+        dt = self._dt_since_last(state.t)
         roll, pitch, yaw = state.euler
         n = self.rng.normal(0.0, 1.0, 3)
-        yaw_m = yaw + c.yaw_bias + c.yaw_noise_std * n[2]
+        if dt > 0 and c.drift_std > 0:
+            a = math.exp(-dt / c.drift_tau_s)
+            self.drift = a * self.drift + c.drift_std * math.sqrt(1.0 - a * a) * float(
+                self.rng.normal()
+            )
+        yaw_m = yaw + self.yaw_error(float(yaw)) + c.yaw_noise_std * n[2]
         yaw_m = math.atan2(math.sin(yaw_m), math.cos(yaw_m))
         return AHRSMeasurement(
             t=float(state.t),

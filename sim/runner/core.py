@@ -37,11 +37,18 @@ class RunResult:
         lines = [f"run {'complete' if self.complete else 'INTERRUPTED'}: {self.out_dir}"]
         for name, v in m.get("vehicles", {}).items():
             lm, po, de = v.get("landmarks", {}), v.get("pose", {}), v.get("detections", {})
+            inside = po.get("nees_in_95_interval")
             lines.append(
-                f"  {name}: ATE {_fmt(po.get('ate_m'))} m, NEES {_fmt(po.get('nees_mean'))}, "
-                f"landmarks {lm.get('n_estimated', 0)} (RMSE {_fmt(lm.get('rmse_m'))} m), "
+                f"  {name}: ATE SLAM {_fmt(po.get('ate_m'))} m vs dead reckoning "
+                f"{_fmt(po.get('dead_reckoning_ate_m'))} m, pose NEES {_fmt(po.get('nees_mean'))}"
+                f" ({'n/a' if inside is None else f'{100 * inside:.0f} %'} inside 95 %), "
+                f"landmarks {lm.get('n_estimated', 0)} (RMSE {_fmt(lm.get('rmse_m'))} m, "
+                f"NEES {_fmt(lm.get('landmark_nees_mean'))}, "
+                f"duplicated {lm.get('n_duplicated_objects', 0)}), "
                 f"detections {de.get('n_detections', 0)} (PPV {_fmt(de.get('ppv'))})"
             )
+            for w in v.get("navigation", {}).get("warnings", []):
+                lines.append(f"  WARNING {name}: {w}")
         t = m.get("timing", {})
         lines.append(
             f"  sim {m.get('sim_time_s', 0):.1f} s in {_fmt(t.get('wall_s'))} s (RTF {_fmt(t.get('real_time_factor'))})"

@@ -2,8 +2,9 @@
 frame into the vehicle's sonar-to-SLAM pipeline (slam.pipeline.SonarSlam).
 
 One control tick (``scenario.control_dt``): every vehicle's autopilot (sim.guidance)
-turns its true state into a body wrench demand (guidance uses the true state: the
-vehicles' own navigation filters are not modelled; SLAM runs beside it). Physics then
+turns its own navigation state (``NavSuite.navigation_state``: dead-reckoned x, y, yaw
+and the depth sensor; truth stays in metrics) into a body wrench demand; SLAM runs
+beside it. Physics then
 advances in whole physics steps to each sonar ping due inside the tick; at each ping the
 vehicle's nav suite is polled and its odometry cut at the ping time, so every sonar
 observation has an odometry node at exactly its time. Each ping becomes a
@@ -67,13 +68,16 @@ def step_to(world, t: float, timer: StageTimer | None = None) -> None:
 
 def advance_tick(world, pilots, tracks, dt_c: float, on_ping, timer: StageTimer | None = None):
     """One control tick of the scenario clock (module docstring), shared by the runner and
-    the dataset exporter: each (handle, autopilot) of ``pilots`` sets its wrench demand
-    from the true state; physics advances to each ping due inside the tick (``tracks``:
+    the dataset exporter: each (handle, autopilot, steer) of ``pilots`` sets its wrench
+    demand from ``steer(true state)`` — the vehicle's own navigation estimate in a run
+    (``NavSuite.navigation_state``), the true state where ``steer`` is None; physics
+    advances to each ping due inside the tick (``tracks``:
     objects with ``next_t`` and ``period`` s; ties in list order), ``on_ping(k)`` fires
     track k there; then physics runs to the end of the tick."""
     t0 = time.perf_counter()
-    for handle, autopilot in pilots:
-        handle.apply_wrench_demand(autopilot.update(handle.state(), dt_c))
+    for handle, autopilot, steer in pilots:
+        st = handle.state()
+        handle.apply_wrench_demand(autopilot.update(st if steer is None else steer(st), dt_c))
     if timer is not None:
         timer.add("guidance", t0)
     t_end = world.time + dt_c
@@ -125,7 +129,13 @@ class ScenarioRun:
                 (s.sonar.config.max_range for s in sonars if s.kind == "sss"), default=30.0
             )
             ap = autopilot_for(self.world, vs.name, mission_for(vs, swath * 0.8), check=False)
-            nav = NavSuite(vs.nav.suite_config(), np.random.default_rng(s_nav), t0=self.world.time)
+            pose0 = np.array([*vs.start_position[:2], math.radians(vs.start_yaw_deg)])
+            nav = NavSuite(
+                vs.nav.suite_config(),
+                np.random.default_rng(s_nav),
+                t0=self.world.time,
+                initial_pose=pose0,
+            )
             pipe = make_pipeline(self.world, vs, sonars, np.random.default_rng(s_slam))
             handle = self.world.vehicles[vs.name]
             self.vehicles.append(VehicleRuntime(vs, handle, ap, nav, pipe, sonars))
@@ -172,7 +182,7 @@ class ScenarioRun:
 
         advance_tick(
             self.world,
-            [(v.handle, v.autopilot) for v in self.vehicles],
+            [(v.handle, v.autopilot, v.nav.navigation_state) for v in self.vehicles],
             [s for _, s in tracks],
             dt_c,
             on_ping,

@@ -74,6 +74,7 @@ def _one_vehicle(v: VehicleRuntime, objs, truth_xy) -> dict:
         "kind": v.spec.kind,
         "distance_travelled_m": float(np.sum(np.hypot(*np.diff(tp[:, :2], axis=0).T))),
         "detections": _detections(v, objs),
+        "navigation": v.nav.summary(),
     }
     if v.lagged is None:
         return d

@@ -45,6 +45,7 @@ FRONTEND_PRESETS = ("auto", *_SEGMENTATION_PRESETS)
 ESTIMATORS = (*_ESTIMATOR_MODULES, "none")
 MISSION_TYPES = ("lawnmower", "loop", "line", "waypoints", "hold")
 NAV_SENSORS = ("imu", "dvl", "depth", "ahrs", "gps")
+VEHICLE_ASSETS = Path(__file__).resolve().parents[2] / "assets" / "vehicles"
 
 
 class ScenarioError(ValueError):
@@ -122,13 +123,36 @@ class SonarSpec:
 @dataclass(frozen=True)
 class NavSpec:
     """Navigation sensors: per sensor (imu, dvl, depth, ahrs, gps) an optional preset name
-    and field overrides of sim.navigation's configs; coast_velocity_std m/s/sqrt(s)."""
+    and field overrides of sim.navigation's configs; coast_velocity_std m/s/sqrt(s).
+    ``kind``: the vehicle whose own payload (``assets/vehicles/<kind>/navigation.toml``)
+    is the base; a sensor table with a ``preset`` replaces the vehicle's sensor, one
+    without overrides its fields. ``ahrs = { enabled = false }`` removes the compass."""
 
     sensors: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     coast_velocity_std: float = 0.05
+    kind: str | None = None
 
-    def suite_config(self):
-        """The sim.navigation.NavSuiteConfig this spec describes."""
+    def merged_sensors(self) -> dict[str, dict[str, Any]]:
+        """The vehicle's payload with this spec's sensor tables applied."""
+        base: dict[str, dict[str, Any]] = {}
+        if self.kind is not None:
+            path = VEHICLE_ASSETS / self.kind / "navigation.toml"
+            if path.exists():
+                with path.open("rb") as f:
+                    base = {k: dict(v) for k, v in tomllib.load(f).items()}
+        for k, d in self.sensors.items():
+            d = dict(d)
+            base[k] = d if "preset" in d or k not in base else {**base[k], **d}
+        return base
+
+    def sensor_config(self, k: str):
+        """The config of sensor ``k`` alone as this spec gives it (no vehicle payload),
+        None for a disabled ahrs: validates the sensor's own fields."""
+        return NavSpec(sensors={k: self.sensors[k]}).suite_config(only=k)
+
+    def suite_config(self, only: str | None = None):
+        """The sim.navigation.NavSuiteConfig this spec describes (``only``: return just
+        that sensor's config)."""
         from sim.navigation import (
             AHRSConfig,
             DepthConfig,
@@ -146,12 +170,19 @@ class NavSpec:
             "gps": GPSConfig,
         }
         kw: dict[str, Any] = {}
-        for k, d in self.sensors.items():
+        for k, d in self.merged_sensors().items():
             d = dict(d)
+            if d.pop("enabled", True) is False:
+                if k != "ahrs":
+                    raise ValueError(f"only the ahrs can be disabled, not the {k}")
+                kw[k] = None
+                continue
             preset = d.pop("preset", None)
             cls = classes[k]
             base = NavSuiteConfig.__dataclass_fields__[k].default_factory()  # type: ignore[misc]
             kw[k] = cls.preset(preset, **d) if preset else replace(base, **d)
+        if only is not None:
+            return kw.get(only)
         return NavSuiteConfig(**kw, coast_velocity_std=self.coast_velocity_std)
 
 
@@ -502,7 +533,7 @@ def _check_sonar_overrides(preset: str, overrides: dict, path: str) -> None:
         raise ScenarioError(f"scenario field '{path}': {exc}") from exc
 
 
-def _parse_nav(d, path) -> NavSpec:
+def _parse_nav(d, path, kind: str | None = None) -> NavSpec:
     d = _table(d, path)
     _check_keys(d, path, ("coast_velocity_std", *NAV_SENSORS))
     sensors = {k: _scalar_overrides(d[k], f"{path}.{k}") for k in NAV_SENSORS if k in d}
@@ -511,6 +542,7 @@ def _parse_nav(d, path) -> NavSpec:
         coast_velocity_std=_num(
             d.get("coast_velocity_std", 0.05), f"{path}.coast_velocity_std", 0.0, 10.0
         ),
+        kind=kind,
     )
     try:
         import sim.navigation  # noqa: F401
@@ -518,10 +550,39 @@ def _parse_nav(d, path) -> NavSpec:
         return spec
     for k in sensors:
         try:
-            NavSpec(sensors={k: sensors[k]}).suite_config()
+            spec.sensor_config(k)
         except (ValueError, TypeError) as exc:
             raise ScenarioError(f"scenario field '{path}.{k}': {exc}") from exc
+    try:
+        spec.suite_config()
+    except (ValueError, TypeError) as exc:
+        raise ScenarioError(f"scenario field '{path}': {exc}") from exc
     return spec
+
+
+def _check_dvl_lock(v: VehicleSpec, path: str, world: WorldSpecConfig) -> None:
+    """A mission flown entirely above (or below) the DVL's bottom-lock window leaves dead
+    reckoning without velocity for the whole run: reject it, naming both fields."""
+    try:
+        dvl = v.nav.suite_config().dvl
+    except ImportError:  # navigation package not available: checked at run time
+        return
+    m = v.mission
+    if m.altitude_m is not None:
+        alt, where = m.altitude_m, f"{path}.mission.altitude_m"
+    elif m.depth_m is not None:
+        alt, where = world.depth_m - m.depth_m, f"{path}.mission.depth_m"
+    else:
+        return
+    if not dvl.min_altitude <= alt <= dvl.max_altitude:
+        raise _fail(
+            where,
+            m.altitude_m if m.altitude_m is not None else m.depth_m,
+            f"a mission altitude inside the DVL's bottom-lock window "
+            f"[{dvl.min_altitude:g}, {dvl.max_altitude:g}] m ({path}.nav.dvl min_altitude / "
+            f"max_altitude; the flight would be at {alt:g} m above a {world.depth_m:g} m "
+            "seabed): dead reckoning would have no velocity for the whole run",
+        )
 
 
 def _parse_vehicle(
@@ -561,17 +622,19 @@ def _parse_vehicle(
             raise _fail(
                 f"{path}.sonars[{i}].name", n, "a name not used by another sonar of this vehicle"
             )
-    return VehicleSpec(
+    spec = VehicleSpec(
         name=name,
         kind=kind,
         start_position=pos,  # type: ignore[arg-type]
         start_yaw_deg=_num(start.get("yaw_deg", 0.0), f"{path}.start.yaw_deg", -360.0, 360.0),
         mission=_parse_mission(d.get("mission", {}), f"{path}.mission"),
         sonars=sonars,
-        nav=_parse_nav(d.get("nav", {}), f"{path}.nav"),
+        nav=_parse_nav(d.get("nav", {}), f"{path}.nav", kind),
         frontend=_parse_frontend(d.get("frontend", {}), f"{path}.frontend", fe_base),
         slam=_parse_slam(d.get("slam", {}), f"{path}.slam", slam_base),
     )
+    _check_dvl_lock(spec, path, world)
+    return spec
 
 
 TOP_KEYS = (

@@ -31,7 +31,8 @@ and improvement of the consistency of extended Kalman filter based SLAM", ICRA 2
 keeps the filter's unobservable subspace three-dimensional as in the true system;
 ``iterations`` makes loop-closure-size updates iterated (Gauss–Newton) updates;
 ``association="jcbb"`` uses joint compatibility (:mod:`slam.estimators.jcbb`); the preset
-``"consistent"`` combines the three (measured in ``slam/experiments/README.md``).
+``"consistent"`` combines the three and is the default (measured in
+``slam/experiments/README.md``); ``"reference"`` is Bailey's filter.
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ from slam.types import Odometry, RangeBearing
 
 __all__ = [
     "AEKF_PRESETS",
+    "DEFAULT_PRESET",
     "AEKFConfig",
     "AEKFSlam",
     "associate",
@@ -700,14 +702,21 @@ AEKF_PRESETS: dict[str, dict] = {
 }
 
 
+#: preset of an AEKFSlam built without ``config`` or ``preset`` (``make_estimator("aekf")``,
+#: scenarios, envs, ``undersea slam-experiment``); Bailey's filter is ``preset="reference"``
+DEFAULT_PRESET = "consistent"
+
+
 class AEKFSlam:
     """AEKF-SLAM behind :class:`slam.estimators.base.SlamEstimator` (thin wrapper of the
     pure functions; a test checks they agree).
 
     The filter starts at ``x0`` (default the origin) with covariance ``P0`` (default zero:
     the world frame is the initial pose, thesis §5.6.1). A rejected input raises
-    ``ValueError`` before anything is changed. ``preset="consistent"`` (or ``"reference"``)
-    starts from one of :data:`AEKF_PRESETS`; keyword parameters override it.
+    ``ValueError`` before anything is changed. Without ``config`` the filter starts from
+    the preset ``preset`` of :data:`AEKF_PRESETS` (default :data:`DEFAULT_PRESET`,
+    ``"consistent"``; ``"reference"`` is Bailey's filter as the thesis ran it); keyword
+    parameters override it.
     """
 
     name = "aekf"
@@ -726,6 +735,8 @@ class AEKFSlam:
         # factory can pass the same keywords to every estimator.
         del rng, seed
         preset = params.pop("preset", None)
+        if preset is None and config is None:
+            preset = DEFAULT_PRESET
         if preset is not None:
             if config is not None:
                 raise ValueError("pass either config or preset, got both")

@@ -81,9 +81,12 @@ def run_dr(states, cfg: NavSuiteConfig, seed, cut_every=None):
 
 def suite_cfg(dvl_std=0.01, gyro_density=1e-3, dropout=0.0, bias0=0.0, aiding=False):
     """Gyro-only heading by default (these tests check the DVL + gyro mechanisation and
-    its closed forms; compass aiding is tested in test_nav_consumer_imu.py)."""
+    its closed forms; compass aiding is tested in test_nav_consumer_imu.py), white DVL
+    noise only (the turn-on constants and the matched covariance have their own tests
+    in test_nav_drift.py), each increment with its own marginal covariance."""
     return NavSuiteConfig(
         heading_aiding=aiding,
+        matched_odometry_covariance=False,
         imu=IMUConfig(
             rate_hz=CTRL_HZ,
             gyro_noise_density=gyro_density,
@@ -91,7 +94,14 @@ def suite_cfg(dvl_std=0.01, gyro_density=1e-3, dropout=0.0, bias0=0.0, aiding=Fa
             gyro_bias_init_std=bias0,
             accel_bias_init_std=0.0,
         ),
-        dvl=DVLConfig.preset("rdi600", velocity_noise_std=dvl_std, dropout_prob=dropout),
+        dvl=DVLConfig.preset(
+            "rdi600",
+            velocity_noise_std=dvl_std,
+            dropout_prob=dropout,
+            scale_factor_std=0.0,
+            misalignment_std=0.0,
+            velocity_bias_std=0.0,
+        ),
         initial_velocity_std=0.02,
     )
 

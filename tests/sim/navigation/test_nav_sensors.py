@@ -111,8 +111,15 @@ def test_imu_bias_random_walk_increments_have_configured_variance():
 
 def test_dvl_lock_window_dropouts_and_noise():
     """No lock above max_altitude / below min_altitude / unknown altitude; dropout
-    fraction inside the window within a 4σ binomial bound; velocity noise std as set."""
-    cfg = DVLConfig.preset("rdi600", dropout_prob=0.1)
+    fraction inside the window within a 4σ binomial bound; velocity noise std as set
+    (the turn-on constants switched off: they have their own test)."""
+    cfg = DVLConfig.preset(
+        "rdi600",
+        dropout_prob=0.1,
+        scale_factor_std=0.0,
+        misalignment_std=0.0,
+        velocity_bias_std=0.0,
+    )
     dvl = DVL(cfg, np.random.default_rng(3))
     v = (1.2, -0.1, 0.05)
     assert not dvl.measure(make_state(v=v, altitude=cfg.max_altitude + 1)).valid

@@ -57,7 +57,7 @@ def test_world_outputs_equal_world_frame_filter_before_any_update():
     filter's world pose and landmarks equal the world-frame AEKF's exactly (to rounding)."""
     R = np.diag([0.01, 3e-4])
     Q = np.diag([2e-3, 5e-4, 3e-4])
-    a, b = AEKFSlam(), RobocentricAEKFSlam()
+    a, b = AEKFSlam(preset="reference"), RobocentricAEKFSlam()
     for f in (a, b):
         f.predict_arrays([1.0, 0.1, 0.2], Q)
         f.update_arrays([[8.0, 0.3], [12.0, -0.5]], R)

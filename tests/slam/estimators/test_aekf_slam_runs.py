@@ -48,7 +48,7 @@ def test_standard_ekf_gated_association_makes_no_false_match(two_loop_run):
     with the default gates agrees with the simulator's label. (On this seed its
     overconfidence makes it duplicate 14 landmarks at loop closure instead — the
     reference's inconsistency; see the FEJ test below.)"""
-    rows = _drive(AEKFSlam(), two_loop_run)
+    rows = _drive(AEKFSlam(preset="reference"), two_loop_run)
     assert rows.shape[0] > 0.5 * two_loop_run.obs_z.shape[0]
     np.testing.assert_array_equal(rows[:, 1], rows[:, 2])
 
@@ -66,7 +66,7 @@ def test_gated_association_makes_no_false_match_and_closes_the_loop(
     filter rejects 13.5 % at gate 4). Seed 11: over seeds 0-7 of this simulator the gated
     association duplicated landmarks at loop closure in 2 runs (standard) and 1 run (FEJ)."""
     run = two_loop_run
-    f = AEKFSlam(jacobians=jacobians)
+    f = AEKFSlam(preset="reference", jacobians=jacobians)
     rows = _drive(f, run)
     assert rows.shape[0] > min_used * run.obs_z.shape[0]
     np.testing.assert_array_equal(rows[:, 1], rows[:, 2])  # no false association
@@ -88,7 +88,7 @@ def test_gated_association_makes_no_false_match_and_closes_the_loop(
 def test_fej_known_association_nis_is_chi_square_2(two_loop_run):
     """With FEJ and known association the innovations are consistent: mean NIS ≈ 2 (χ²₂
     mean) and ≈ 86.5 % of them below 4 (χ²₂ CDF at 4 = 1 - e⁻²)."""
-    f = AEKFSlam(jacobians="fej", association="known")
+    f = AEKFSlam(preset="reference", jacobians="fej", association="known")
     nis = []
     for i in range(two_loop_run.n_scans):
         f.predict(two_loop_run.odometry(i))
@@ -156,7 +156,9 @@ def test_segmentation_loop_clustered_landmarks_need_joint_compatibility(seed):
     run = simulate_run(
         spec.map.landmarks, spec.map.waypoints, spec.sim, np.random.default_rng(ss.spawn(2)[0])
     )
-    individual = _drive(AEKFSlam(jacobians="fej", unambiguous_gate=25.0, iterations=10), run)
+    individual = _drive(
+        AEKFSlam(preset="reference", jacobians="fej", unambiguous_gate=25.0, iterations=10), run
+    )
     assert np.sum(individual[:, 1] != individual[:, 2]) > 50  # the control fails
     f = AEKFSlam(preset="consistent")
     joint = _drive(f, run)
@@ -169,8 +171,10 @@ def test_standard_ekf_is_overconfident_where_fej_is_not(two_loop_run):
     """The reference's inconsistency (§6.1.2) shows in NEES: over two loops the standard
     EKF's mean pose NEES exceeds FEJ's (same data)."""
     spec = get_experiment("dense-loop")
-    std = run_once(spec, "aekf", 11, {}, sim_run=two_loop_run)
-    fej = run_once(spec, "aekf", 11, {"jacobians": "fej"}, sim_run=two_loop_run)
+    std = run_once(spec, "aekf", 11, {"preset": "reference"}, sim_run=two_loop_run)
+    fej = run_once(
+        spec, "aekf", 11, {"preset": "reference", "jacobians": "fej"}, sim_run=two_loop_run
+    )
     assert np.nanmean(fej.nees) < np.nanmean(std.nees)
     assert fej.frac_in_3sigma >= std.frac_in_3sigma
 
@@ -179,7 +183,7 @@ def test_state_reduction_removes_a_corrupted_landmark(two_loop_run):
     """A spurious landmark planted on the path is predicted inside the footprint, never
     re-observed, and removed after max_misses scans; the real ones stay."""
     run = two_loop_run
-    f = AEKFSlam(max_misses=5)
+    f = AEKFSlam(preset="reference", max_misses=5)
     f.predict(run.odometry(0))
     f.update(run.observations(0))
     n0 = f.n_landmarks
@@ -244,3 +248,17 @@ def test_factory_isam2_without_gtsam_names_the_extra(monkeypatch):
     monkeypatch.delitem(sys.modules, "slam.estimators.isam2", raising=False)
     with pytest.raises(ImportError, match="baselines"):
         make_estimator("isam2")
+
+
+def test_default_aekf_is_the_consistent_preset_and_reference_stays_available():
+    """Issue 12: ``make_estimator("aekf")`` without a preset is the consistent filter
+    (FEJ + JCBB + iterated closures, AEKF_PRESETS["consistent"]); Bailey's filter is
+    ``preset="reference"`` (the AEKFConfig defaults); keywords override the preset."""
+    from slam.estimators.aekf import AEKF_PRESETS, AEKFConfig
+
+    d = make_estimator("aekf").config
+    for k, v in AEKF_PRESETS["consistent"].items():
+        assert getattr(d, k) == v
+    assert make_estimator("aekf", preset="reference").config == AEKFConfig()
+    assert make_estimator("aekf", iterations=1).config.jacobians == "fej"
+    assert make_estimator("aekf", iterations=1).config.iterations == 1

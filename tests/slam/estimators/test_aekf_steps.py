@@ -295,7 +295,7 @@ def test_exclusive_association_keeps_best_claim(rng):
 def test_pure_functions_and_class_agree(rng):
     x0 = np.array([0.5, 0.2, 0.1])
     P0 = np.diag([0.01, 0.01, 0.001])
-    f = AEKFSlam(x0=x0, P0=P0)
+    f = AEKFSlam(preset="reference", x0=x0, P0=P0)
     x, P = x0.copy(), P0.copy()
     R = np.diag([0.01, 3e-4])
     lms = np.array([[10.0, 3.0], [8.0, -6.0], [15.0, 1.0]])
@@ -334,7 +334,7 @@ def test_pure_functions_and_class_agree(rng):
     ],
 )
 def test_rejected_odometry_leaves_state_unchanged(u, Q, match):
-    f = AEKFSlam()
+    f = AEKFSlam(preset="reference")
     f.update_arrays([[5.0, 0.1]], np.diag([0.01, 3e-4]))
     before = f.state()
     with pytest.raises(ValueError, match=match):
@@ -356,7 +356,7 @@ def test_rejected_odometry_leaves_state_unchanged(u, Q, match):
     ],
 )
 def test_rejected_observations_leave_state_unchanged(z, R, match):
-    f = AEKFSlam()
+    f = AEKFSlam(preset="reference")
     f.update_arrays([[5.0, 0.1]], np.diag([0.01, 3e-4]))
     f.predict_arrays([0.3, 0.0, 0.01], np.diag([1e-3, 1e-4, 1e-4]))
     before = f.state()
@@ -369,9 +369,9 @@ def test_rejected_observations_leave_state_unchanged(z, R, match):
 
 def test_non_psd_initial_covariance_rejected():
     with pytest.raises(ValueError, match="positive semi-definite"):
-        AEKFSlam(P0=np.array([[1.0, 2.0, 0], [2.0, 1.0, 0], [0, 0, 1.0]]))
+        AEKFSlam(preset="reference", P0=np.array([[1.0, 2.0, 0], [2.0, 1.0, 0], [0, 0, 1.0]]))
     with pytest.raises(ValueError, match="reject_gate"):
-        AEKFSlam(reject_gate=-1.0)
+        AEKFSlam(preset="reference", reject_gate=-1.0)
 
 
 # ----------------------------------------------------------------- property: P stays PSD
@@ -391,6 +391,7 @@ def test_covariance_stays_symmetric_psd_over_random_sequences(
 ):
     rng = np.random.default_rng(seed)
     f = AEKFSlam(
+        preset="reference",
         joseph=joseph,
         jacobians="fej" if fej else "standard",
         batch=batch,
@@ -421,7 +422,7 @@ def test_merge_fuses_a_duplicated_landmark_exactly():
     """Two estimates of one point (augmented from two observations) are fused by the
     exact constraint x_i = x_j: the result equals the textbook KF with H = [I, -I], R = 0,
     and the newer duplicate is removed."""
-    f = AEKFSlam(merge_gate=9.0, merge_every=1)
+    f = AEKFSlam(preset="reference", merge_gate=9.0, merge_every=1)
     R = np.diag([0.01, 3e-4])
     f.update_arrays([[10.0, 0.3]], R)
     x, P = f.state()
@@ -503,13 +504,13 @@ def test_iterated_update_is_the_ekf_update_when_the_step_is_linear(rng):
 @pytest.mark.parametrize("gate", [-1.0, float("nan"), float("inf")])
 def test_bad_relinearize_gate_rejected(gate):
     with pytest.raises(ValueError, match="relinearize_gate"):
-        AEKFSlam(iterations=5, relinearize_gate=gate)
+        AEKFSlam(preset="reference", iterations=5, relinearize_gate=gate)
 
 
 @pytest.mark.parametrize("bad", [0, -1, 1.5])
 def test_bad_iterations_rejected(bad):
     with pytest.raises(ValueError, match="iterations"):
-        AEKFSlam(iterations=bad)
+        AEKFSlam(preset="reference", iterations=bad)
     x, P = _random_state(np.random.default_rng(0))
     with pytest.raises(ValueError, match="iterations"):
         update(x, P, [[10.0, 0.1]], np.diag([0.01, 3e-4]), [0], iterations=bad)
