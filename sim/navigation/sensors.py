@@ -54,22 +54,6 @@ __all__ = [
 ]
 
 
-# --------------------------------------------------------------------------- rotations
-
-
-def rotvec_from_matrix(R: np.ndarray) -> np.ndarray:
-    """Rotation vector (3,) rad of a rotation matrix (3, 3) whose angle is below ~3 rad
-    (the rotation between two sensor samples); scalar maths, ~20× faster than
-    ``scipy.spatial.transform.Rotation`` for one matrix. Near zero angle the first-order
-    term ``vee(R − Rᵀ)/2`` is exact to O(θ³)."""
-    c = min(1.0, max(-1.0, 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)))
-    w = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    theta = math.acos(c)
-    if theta < 1e-6:
-        return w
-    return w * (theta / math.sin(theta))
-
-
 # --------------------------------------------------------------------------- validation
 
 
