@@ -23,9 +23,7 @@ def available() -> list[str]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "target", help="benchmark name: " + ", ".join(available() or ["(none found)"])
-    )
+    parser.add_argument("target", help="benchmark name: " + ", ".join(available() or ["(none found)"]))
     parser.add_argument("rest", nargs=argparse.REMAINDER, help="arguments passed to the benchmark")
 
 

@@ -359,11 +359,7 @@ def build_dataset(
 def _run_local(todo, out: Path, workers: int, max_retries: int, collect, on_retry) -> None:
     def finished(job) -> dict | None:
         # a worker died (killed, OOM): its finished shards are on disk
-        return (
-            {"shard": job.index, "frames": job.n_frames}
-            if shard_path(out, job.index).exists()
-            else None
-        )
+        return {"shard": job.index, "frames": job.n_frames} if shard_path(out, job.index).exists() else None
 
     def give_up(job, attempts: int) -> None:
         raise RuntimeError(
@@ -372,15 +368,8 @@ def _run_local(todo, out: Path, workers: int, max_retries: int, collect, on_retr
         )
 
     run_local_pool(
-        run_shard,
-        todo,
-        lambda job: (job, str(out)),
-        workers,
-        max_retries,
-        key=lambda job: job.index,
-        collect=collect,
-        finished=finished,
-        give_up=give_up,
+        run_shard, todo, lambda job: (job, str(out)), workers, max_retries,
+        key=lambda job: job.index, collect=collect, finished=finished, give_up=give_up,
         on_retry=lambda job: on_retry(job.index),
     )
 

@@ -283,9 +283,7 @@ class UnderseaEnv(gym.Env):
 
         mesh = vehicle_body_mesh(self.world.model, self.world.data, self.vehicle.body_id)
         if mesh is not None:
-            L.log_vehicle_mesh(
-                self._rec, self.vehicle.name, mesh[0], mesh[1], vertex_colors=mesh[2]
-            )
+            L.log_vehicle_mesh(self._rec, self.vehicle.name, mesh[0], mesh[1], vertex_colors=mesh[2])
         if self.world.objects:
             L.log_objects(
                 self._rec,

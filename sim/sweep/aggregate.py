@@ -35,9 +35,7 @@ class SweepTable:
     def to_csv(self, path: str | Path) -> Path:
         path = Path(path)
         with path.open("w", newline="") as f:
-            w = csv.DictWriter(
-                f, fieldnames=["variant", "metric", "n", "mean", "std", "ci95_low", "ci95_high"]
-            )
+            w = csv.DictWriter(f, fieldnames=["variant", "metric", "n", "mean", "std", "ci95_low", "ci95_high"])
             w.writeheader()
             w.writerows(self.rows)
         return path
@@ -49,10 +47,7 @@ class SweepTable:
             import pyarrow.parquet as pq
         except ImportError:
             return None
-        cols = {
-            k: [r[k] for r in self.rows]
-            for k in ("variant", "metric", "n", "mean", "std", "ci95_low", "ci95_high")
-        }
+        cols = {k: [r[k] for r in self.rows] for k in ("variant", "metric", "n", "mean", "std", "ci95_low", "ci95_high")}
         pq.write_table(pa.table(cols), str(path))
         return Path(path)
 
@@ -88,15 +83,8 @@ def aggregate_runs(records: list[dict], confidence: float = 0.95) -> SweepTable:
             else:
                 lo = hi = math.nan
             rows.append(
-                {
-                    "variant": variant,
-                    "metric": name,
-                    "n": n,
-                    "mean": mean,
-                    "std": std,
-                    "ci95_low": lo,
-                    "ci95_high": hi,
-                }
+                {"variant": variant, "metric": name, "n": n, "mean": mean, "std": std,
+                 "ci95_low": lo, "ci95_high": hi}
             )
     return SweepTable(rows=rows)
 

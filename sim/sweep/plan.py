@@ -31,15 +31,11 @@ def parse_vary(items: list[str] | None) -> dict[str, list]:
     out: dict[str, list] = {}
     for item in items or []:
         if "=" not in item:
-            raise ValueError(
-                f"--vary {item!r}: expected key=v1,v2,... (e.g. slam.estimator=aekf,fastslam2)"
-            )
+            raise ValueError(f"--vary {item!r}: expected key=v1,v2,... (e.g. slam.estimator=aekf,fastslam2)")
         key, _, values = item.partition("=")
         key = key.strip()
         if not _KEY.match(key):
-            raise ValueError(
-                f"--vary {item!r}: key {key!r} must be a dotted name like slam.estimator"
-            )
+            raise ValueError(f"--vary {item!r}: key {key!r} must be a dotted name like slam.estimator")
         vals = [_coerce(v) for v in values.split(",") if v.strip()]
         if not vals:
             raise ValueError(f"--vary {item!r}: no values after '='")

@@ -118,12 +118,7 @@ def run_sweep(
     out.mkdir(parents=True, exist_ok=True)
     (out / "plan.json").write_text(
         json.dumps(
-            {
-                "target": plan.target,
-                "runs": plan.runs,
-                "vary": plan.vary,
-                "base_seed": plan.base_seed,
-            },
+            {"target": plan.target, "runs": plan.runs, "vary": plan.vary, "base_seed": plan.base_seed},
             indent=1,
         )
     )
@@ -183,15 +178,8 @@ def _run_local(target, todo, out: Path, workers: int, max_retries: int, collect)
         collect(record)
 
     run_local_pool(
-        execute_run,
-        todo,
-        lambda spec: (target, spec, str(out)),
-        workers,
-        max_retries,
-        key=lambda spec: spec.run_id,
-        collect=collect,
-        finished=finished,
-        give_up=give_up,
+        execute_run, todo, lambda spec: (target, spec, str(out)), workers, max_retries,
+        key=lambda spec: spec.run_id, collect=collect, finished=finished, give_up=give_up,
     )
 
 
