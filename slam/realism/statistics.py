@@ -157,13 +157,14 @@ def patch_cv(amplitude: np.ndarray) -> np.ndarray:
 
 def patch_lag1(values: np.ndarray, axis: int) -> np.ndarray:
     """(T, n, n) → (T,) Pearson correlation between neighbours one step apart along
-    ``axis`` (1 = pings, 2 = range), the patch mean removed."""
+    ``axis`` (1 = pings, 2 = range), the patch mean removed; nan for a constant patch."""
     d = values - values.mean(axis=(1, 2), keepdims=True)
     a = np.take(d, np.arange(d.shape[axis] - 1), axis=axis)
     b = np.take(d, np.arange(1, d.shape[axis]), axis=axis)
     num = (a * b).sum(axis=(1, 2))
     den = np.sqrt((a * a).sum(axis=(1, 2)) * (b * b).sum(axis=(1, 2)))
-    return num / den
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
 
 
 def seabed_profile_peak(side: np.ndarray, track: BottomTrack, smooth: int) -> float:
@@ -184,6 +185,12 @@ def seabed_profile_peak(side: np.ndarray, track: BottomTrack, smooth: int) -> fl
     if prof.size == 0:
         return float("nan")
     return float(uniform_filter1d(prof, min(smooth, prof.size), mode="nearest").max())
+
+
+def _nanmedian(x: np.ndarray) -> float:
+    """Median of the finite values (constant patches have no correlation); nan if none."""
+    x = x[np.isfinite(x)]
+    return float(np.median(x)) if x.size else float("nan")
 
 
 def side_statistics(
@@ -223,8 +230,8 @@ def side_statistics(
     return SideStatistics(
         cv_amplitude=float(np.median(patch_cv(amp))),
         db_std=float(np.median(np.std(10.0 * np.log10(patches), axis=(1, 2), ddof=1))),
-        lag1_range=float(np.median(patch_lag1(amp, axis=2))),
-        lag1_ping=float(np.median(patch_lag1(amp, axis=1))),
+        lag1_range=_nanmedian(patch_lag1(amp, axis=2)),
+        lag1_ping=_nanmedian(patch_lag1(amp, axis=1)),
         water_column_db=float(wc_db),
         dynamic_range_db=float(10.0 * np.log10(hi / lo)),
         saturation=float(np.mean(side >= clip)),
@@ -264,3 +271,17 @@ def waterfall_statistics(
         port=side_statistics(port, clip, cfg, "port"),
         starboard=side_statistics(stbd, clip, cfg, "starboard"),
     )
+
+
+def seabed_reference(intensity: np.ndarray, guard: int = 8) -> float:
+    """Median seabed intensity of a waterfall, both sides (a gain reference for display:
+    images in dB re this level share one scale whatever the recording's gain)."""
+    vals = []
+    for side in split_sides(intensity):
+        track = first_bottom_return(side)
+        vals.append(side[seabed_mask(track, side.shape, guard)])
+    v = np.concatenate(vals)
+    v = v[v > 0]
+    if v.size == 0:
+        raise ValueError("no positive seabed sample to take a reference level from")
+    return float(np.median(v))
