@@ -59,6 +59,7 @@ def world_spec_from_scenario(scn: Scenario):
         depth=w.depth_m,
         seed=scn.world_seed,
         grid_path=w.grid_path or None,
+        relief=w.relief_m,
     )
     water = Water.from_ts(w.water.temperature_c, w.water.salinity_psu, reference_depth_m=w.depth_m)
     cur = CurrentSpec(
