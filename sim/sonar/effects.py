@@ -71,7 +71,7 @@ class RealismConfig:
     frac_gravel: float = 0.15
     frac_rock: float = 0.0
     patch_scale_m: float = 12.0
-    texture_db: float = 1.5
+    texture_db: float = 1.0
     texture_scale_m: float = 0.8
     ripple_wavelength_m: float = 0.7
     ripple_slope: float = 0.06
