@@ -390,7 +390,8 @@ def preset(name: str, **overrides: Any) -> Any:
     ``acoustic`` may be given as an :class:`AcousticConfig` or as a dict of its fields;
     acoustic fields (e.g. ``source_level_db``, ``noise_level_db``, ``speckle``) and
     :class:`RealismConfig` fields (e.g. ``texture_db``; they switch realism on with its
-    defaults if the preset has none) may also be passed directly.
+    defaults if the preset has none; ``"off"`` sets an optional one to None, for TOML) may
+    also be passed directly.
     """
     if name not in PRESETS:
         raise ValueError(
@@ -409,6 +410,7 @@ def preset(name: str, **overrides: Any) -> Any:
     for k in [k for k in overrides if k not in valid and k in acoustic_fields]:
         ac[k] = overrides.pop(k)
     rz = {k: overrides.pop(k) for k in [k for k in overrides if k in realism_fields]}
+    rz = {k: (None if v == "off" else v) for k, v in rz.items()}  # TOML has no null
     bad = sorted(set(overrides) - valid)
     if bad:
         allowed = sorted(valid | acoustic_fields | realism_fields)

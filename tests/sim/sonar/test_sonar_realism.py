@@ -297,3 +297,20 @@ def test_fls_frame_with_realism_runs_and_differs_only_by_sidelobes(box_on_sand):
 
     a, b = frame(None), frame(rz)
     assert np.all(b >= a * (1 - 1e-6)) and b.sum() > a.sum()
+
+
+def test_realism_fields_are_validated_and_switchable_from_scenario_values():
+    """Bad values name the field; "off" (TOML has no null) switches an optional level off;
+    a scenario using the realistic preset with overrides parses."""
+    with pytest.raises(ValueError, match="texture_db"):
+        preset("deepeye680d_realistic", texture_db=99.0)
+    with pytest.raises(ValueError, match="frac_mud"):
+        preset("deepeye680d_realistic", frac_mud=0.0, frac_sand=0.0, frac_gravel=0.0)
+    assert preset("deepeye680d_realistic", volume_sv_db="off").acoustic.realism.volume_sv_db is None
+    assert preset("deepeye680d").acoustic.realism is None
+    from sim.scenario.schema import ScenarioError, load_scenario
+
+    s = load_scenario("shipwreck-survey", {"world.relief_m": 0.3})
+    assert s.vehicles[0].sonars[0].preset == "deepeye680d_realistic"
+    with pytest.raises(ScenarioError, match="relief_m"):
+        load_scenario("shipwreck-survey", {"world.relief_m": -1.0})
