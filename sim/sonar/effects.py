@@ -90,10 +90,10 @@ class RealismConfig:
     receiver_gain_db: float = 0.0
     bit_depth: int = 16
     full_scale_db: float = 150.0
-    object_mu_db: float | None = -20.0
+    object_mu_db: float | None = -22.0
     facet_specular_db: float | None = 3.0
     facet_width_deg: float = 4.0
-    corner_gain_db: float | None = -20.0
+    corner_gain_db: float | None = -24.0
     corner_width_deg: float = 6.0
     fls_azimuth_sidelobe_db: float | None = -28.0
 

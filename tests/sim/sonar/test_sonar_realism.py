@@ -308,9 +308,12 @@ def test_realism_fields_are_validated_and_switchable_from_scenario_values():
         preset("deepeye680d_realistic", frac_mud=0.0, frac_sand=0.0, frac_gravel=0.0)
     assert preset("deepeye680d_realistic", volume_sv_db="off").acoustic.realism.volume_sv_db is None
     assert preset("deepeye680d").acoustic.realism is None
-    from sim.scenario.schema import ScenarioError, load_scenario
+    from sim.scenario.schema import ScenarioError, _parse_sonar, load_scenario
 
-    s = load_scenario("shipwreck-survey", {"world.relief_m": 0.3})
-    assert s.vehicles[0].sonars[0].preset == "deepeye680d_realistic"
+    sp = _parse_sonar({"preset": "deepeye680d_realistic", "overrides": {"texture_db": 2.0}}, "s")
+    assert sp.is_sidescan
+    with pytest.raises(ScenarioError, match="texture_db"):
+        _parse_sonar({"preset": "deepeye680d_realistic", "overrides": {"texture_db": 99.0}}, "s")
+    assert load_scenario("shipwreck-survey", {"world.relief_m": 0.3}).world.relief_m == 0.3
     with pytest.raises(ScenarioError, match="relief_m"):
         load_scenario("shipwreck-survey", {"world.relief_m": -1.0})
