@@ -43,6 +43,7 @@ COMMANDS: dict[str, str] = {
     "bench": "bench_cmd",
     "sweep": "sweep_cmd",
     "dataset": "dataset_cmd",
+    "realism": "realism_cmd",
 }
 
 

@@ -81,11 +81,13 @@ class WaterSpec:
 
 @dataclass(frozen=True)
 class WorldSpecConfig:
-    """Seabed kind over a size_m[0] x size_m[1] square centred on the origin, at depth_m."""
+    """Seabed kind over a size_m[0] x size_m[1] square centred on the origin, at depth_m;
+    relief_m: rms of gentle large-scale undulation (m, 0 = none)."""
 
     seabed: str = "flat"
     size_m: tuple[float, float] = (200.0, 200.0)
     depth_m: float = 30.0
+    relief_m: float = 0.0
     seed: int | None = None
     grid_path: str = ""
     water: WaterSpec = field(default_factory=WaterSpec)
@@ -352,7 +354,11 @@ def _parse_object(d, path) -> ObjectSpec:
 
 def _parse_world(d, path="world") -> WorldSpecConfig:
     d = _table(d, path)
-    _check_keys(d, path, ("seabed", "size_m", "depth_m", "seed", "grid_path", "water", "objects"))
+    _check_keys(
+        d,
+        path,
+        ("seabed", "size_m", "depth_m", "relief_m", "seed", "grid_path", "water", "objects"),
+    )
     w = _table(d.get("water", {}), f"{path}.water")
     _check_keys(
         w, f"{path}.water", ("temperature_c", "salinity_psu", "current_mps", "current_variability")
@@ -391,6 +397,7 @@ def _parse_world(d, path="world") -> WorldSpecConfig:
         seabed=seabed,
         size_m=size,  # type: ignore[arg-type]
         depth_m=_num(d.get("depth_m", 30.0), f"{path}.depth_m", 1.0, 11000.0),
+        relief_m=_num(d.get("relief_m", 0.0), f"{path}.relief_m", 0.0, 50.0),
         seed=None if seed is None else _int(seed, f"{path}.seed", lo=0),
         grid_path=grid_path,
         water=water,

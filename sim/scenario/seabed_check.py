@@ -64,6 +64,7 @@ def seabed_spec(world, seed: int, grid: np.ndarray | None = None) -> SeabedSpec:
         seed=seed,
         grid_path=world.grid_path or None,
         grid=grid,
+        relief=world.relief_m,
     )
 
 

@@ -16,6 +16,7 @@ from sim.sonar.config import (
     WaterLike,
     preset,
 )
+from sim.sonar.effects import RealismConfig
 from sim.sonar.fls import FanImage, FLSFrame, ForwardLookingSonar, fan_image, fls_frame
 from sim.sonar.msis import MSISPing, MSISScan, MSISSonar, msis_scan
 from sim.sonar.rays import EmbreeRays, MujocoRays, RayHits, make_backend, static_mesh_from_model
@@ -50,6 +51,7 @@ __all__ = [
     "MujocoRays",
     "RayFan",
     "RayHits",
+    "RealismConfig",
     "SSSConfig",
     "SSSPing",
     "SideScanSonar",

@@ -25,6 +25,8 @@ from typing import Any, Literal, Protocol
 
 import numpy as np
 
+from sim.sonar.effects import RealismConfig
+
 SpeckleModel = Literal["none", "rayleigh", "k"]
 BeamPattern = Literal["gaussian", "sinc", "rect"]
 TvgMode = Literal["none", "spreading", "spreading_absorption"]
@@ -99,7 +101,8 @@ class AcousticConfig:
     intensity (µPa²). absorption_model: seawater absorption formula. specular_db: peak of a
     near-normal-incidence (facet/Kirchhoff-like) lobe added to Lambert,
     σ_s = 10^(specular_db/10)·refl·exp(−θ²/(2w²)) with w = specular_width_deg (None: off);
-    it makes the first bottom return (nadir line) bright as in real SSS.
+    it makes the first bottom return (nadir line) bright as in real SSS. realism: the
+    image-realism effects (:class:`sim.sonar.effects.RealismConfig`; None: all off).
     """
 
     source_level_db: float = 210.0
@@ -114,6 +117,7 @@ class AcousticConfig:
     absorption_model: AbsorptionModel = "francois_garrison"
     specular_db: float | None = -8.0
     specular_width_deg: float = 10.0
+    realism: RealismConfig | None = None
 
     def __post_init__(self) -> None:
         _check_range("source_level_db", self.source_level_db, 100.0, 260.0)
@@ -129,6 +133,8 @@ class AcousticConfig:
         if self.specular_db is not None:
             _check_range("specular_db", self.specular_db, -100.0, 20.0)
         _check_range("specular_width_deg", self.specular_width_deg, 0.0, 45.0, lo_open=True)
+        if self.realism is not None and not isinstance(self.realism, RealismConfig):
+            raise ValueError(f"realism = {self.realism!r}; allowed: None or a RealismConfig")
         if self.display_floor_db is not None:
             _check_range("display_floor_db", self.display_floor_db, -100.0, 300.0)
 
@@ -358,6 +364,21 @@ PRESETS: dict[str, Any] = {
         depression_deg=15.0,
         ping_rate_hz=9.0,
     ),
+    # DeepEye 680D with every realism effect on; the calibration (docs/sonar_realism.md)
+    # fits the RealismConfig levels to a real recording
+    "deepeye680d_realistic": SSSConfig(
+        frequency_hz=680e3,
+        max_range=50.0,
+        samples_per_side=1000,
+        range_resolution=0.01,
+        along_track_beamwidth_deg=0.2,
+        vertical_beamwidth_deg=50.0,
+        depression_deg=20.0,
+        ping_rate_hz=14.0,
+        acoustic=AcousticConfig(
+            realism=RealismConfig(range_cell_m=0.02, full_scale_db=158.5, volume_sv_db=-68.0)
+        ),
+    ),
     "blueview_p900_90": FLSConfig(),
     "msis": MSISConfig(),
 }
@@ -367,8 +388,10 @@ def preset(name: str, **overrides: Any) -> Any:
     """A preset config by name with any fields overridden (validated again).
 
     ``acoustic`` may be given as an :class:`AcousticConfig` or as a dict of its fields;
-    acoustic fields (e.g. ``source_level_db``, ``noise_level_db``, ``speckle``) may also be
-    passed directly.
+    acoustic fields (e.g. ``source_level_db``, ``noise_level_db``, ``speckle``) and
+    :class:`RealismConfig` fields (e.g. ``texture_db``; they switch realism on with its
+    defaults if the preset has none; ``"off"`` sets an optional one to None, for TOML) may
+    also be passed directly.
     """
     if name not in PRESETS:
         raise ValueError(
@@ -377,15 +400,24 @@ def preset(name: str, **overrides: Any) -> Any:
     base = PRESETS[name]
     valid = {f.name for f in dataclasses.fields(base)}
     acoustic_fields = {f.name for f in dataclasses.fields(AcousticConfig)}
+    realism_fields = {f.name for f in dataclasses.fields(RealismConfig)}
     ac = overrides.pop("acoustic", None)
-    ac = dict(dataclasses.asdict(ac)) if isinstance(ac, AcousticConfig) else dict(ac or {})
+    ac = (
+        {f.name: getattr(ac, f.name) for f in dataclasses.fields(ac)}
+        if isinstance(ac, AcousticConfig)
+        else dict(ac or {})
+    )
     for k in [k for k in overrides if k not in valid and k in acoustic_fields]:
         ac[k] = overrides.pop(k)
+    rz = {k: overrides.pop(k) for k in [k for k in overrides if k in realism_fields]}
+    rz = {k: (None if v == "off" else v) for k, v in rz.items()}  # TOML has no null
     bad = sorted(set(overrides) - valid)
     if bad:
-        raise ValueError(
-            f"unknown field(s) {bad} for preset {name!r}; allowed: {sorted(valid | acoustic_fields)}"
-        )
+        allowed = sorted(valid | acoustic_fields | realism_fields)
+        raise ValueError(f"unknown field(s) {bad} for preset {name!r}; allowed: {allowed}")
+    if rz:
+        base_rz = ac.get("realism", base.acoustic.realism) or RealismConfig()
+        ac["realism"] = dataclasses.replace(base_rz, **rz)
     if ac:
         overrides["acoustic"] = dataclasses.replace(base.acoustic, **ac)
     return dataclasses.replace(base, **overrides)

@@ -154,6 +154,43 @@ def _splat_shaped(rows, a, b, e, fc, r_bins, link, n_rows, n_bins):
     )
 
 
+def _realistic_sigma(
+    hit,
+    g,
+    r,
+    n,
+    dirs,
+    origin,
+    cos_i,
+    refl,
+    sigma_over_cos,
+    geom_object_id,
+    seabed,
+    obj_spec,
+    obj_gain,
+):
+    """Seabed hits: σ/μ from the sediment field (reflectivity 1); object hits: Lambert
+    term × obj_gain plus the per-facet specular glint. Returns new (refl, σ/(μ cos θ))."""
+    refl = refl.copy()
+    soc = sigma_over_cos.copy()
+    oid = np.where(hit, geom_object_id[g], -1)
+    if seabed is not None:
+        sb = np.flatnonzero(oid == 0)
+        if sb.size:
+            pts = origin[None, :] + dirs[sb] * r[sb, None]
+            s = seabed.sigma_over_mu(pts, n[sb], dirs[sb])
+            refl[sb] = 1.0
+            soc[sb] = s / np.maximum(cos_i[sb], 0.02)
+    ob = np.flatnonzero(oid >= 1)
+    soc[ob] *= obj_gain
+    if obj_spec is not None:
+        peak, w = obj_spec
+        cn = np.minimum(cos_i[ob], 1.0)
+        lobe = peak * np.exp(-0.5 * (np.arccos(cn) / w) ** 2)
+        soc[ob] += lobe / np.maximum(cn, 0.05)
+    return refl, soc
+
+
 def form_echo(
     hits: RayHits,
     origin: np.ndarray,
@@ -171,6 +208,9 @@ def form_echo(
     specular: tuple[float, float] | None = None,
     footprint_scale: float = 1.0,
     neighbours: np.ndarray | None = None,
+    seabed=None,
+    object_specular: tuple[float, float] | None = None,
+    object_gain: float = 1.0,
 ) -> Echo:
     """Bin ray hits into (rows, bins) mean intensity, labels and hit positions.
 
@@ -186,6 +226,11 @@ def form_echo(
     towards it reaches their shared cell edge (range interpolated in angle) instead of the local
     plane: for coarse fans (FLS, MSIS) over textured seabeds (ripples) the local normal
     says little about where the next ray lands.
+    seabed: optional object with ``sigma_over_mu(points, normals, dirs)`` (e.g.
+    :class:`sim.sonar.sediment.SedimentField`): σ/μ of the seabed hits (label 0), replacing
+    ``refl·(cos²θ + specular)`` there. object_specular: (σ peak / μ, lobe width rad) of a
+    per-facet glint added to object hits (label ≥ 1), or None. object_gain: factor on the
+    object hits' Lambert term (a target's own μ over the seabed's ``lambert_mu_db``).
 
     Hit positions: cells holding a ray's footprint centre get the energy-weighted mean of
     those rays' hit points; covered cells between centres are linearly interpolated along
@@ -208,7 +253,24 @@ def form_echo(
         cn = np.minimum(cos_i[near], 1.0)
         th = np.arccos(cn)
         sigma_over_cos[near] += spec_peak * np.exp(-0.5 * (th / spec_w) ** 2) / np.maximum(cn, 0.05)
-    energy = gain * geom_reflectivity[g] * sigma_over_cos
+    refl = geom_reflectivity[g]
+    if seabed is not None or object_specular is not None or object_gain != 1.0:
+        refl, sigma_over_cos = _realistic_sigma(
+            hit,
+            g,
+            r,
+            n,
+            dirs,
+            origin,
+            cos_i,
+            refl,
+            sigma_over_cos,
+            geom_object_id,
+            seabed,
+            object_specular,
+            object_gain,
+        )
+    energy = gain * refl * sigma_over_cos
     energy *= np.exp((-0.2 * np.log(10.0) * alpha_db_m) * r) / (rs * rs)
     energy[~hit] = 0.0
     ext = np.minimum(r * ndd / np.maximum(cos_i, 0.02), MAX_EXTENT_FRACTION * r) / bin_width

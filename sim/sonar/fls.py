@@ -19,6 +19,7 @@ import numpy as np
 from sim.sonar.acoustics import beam_pattern, finish_samples
 from sim.sonar.config import FLSConfig, WaterLike
 from sim.sonar.echo import form_echo
+from sim.sonar.glint import add_azimuth_sidelobes, azimuth_sidelobe_kernel, corner_returns
 from sim.sonar.mount import SonarMount
 
 
@@ -100,6 +101,46 @@ class ForwardLookingSonar:
         self._rows = np.repeat(np.arange(nb, dtype=np.int64), nr)
         j = np.arange(nb * nr).reshape(nb, nr)
         self._neighbours = (j % nr < nr - 1).reshape(-1)[:-1]  # j and j+1 in the same beam
+        self._sidelobes = None
+
+    def _realism(self, mean, hits, origin, dirs):
+        """Mean image plus the objects' corner returns and the azimuth sidelobes of the
+        receive beams (each when its RealismConfig field is set)."""
+        m, c = self.mount, self.config
+        rz = m.realism
+        if rz is None:
+            return mean
+        if rz.corner_gain_db is not None:
+            extra = corner_returns(
+                m.backend,
+                origin,
+                dirs,
+                hits,
+                self._gain,
+                self._rows,
+                m.geom_object_id,
+                m.geom_reflectivity,
+                10.0 ** (rz.corner_gain_db / 10.0) / m.mu,
+                np.deg2rad(rz.corner_width_deg),
+                m.alpha_db_m,
+                c.min_range,
+                self.bin_width,
+                mean.shape[0],
+                mean.shape[1],
+            )
+            if extra is not None:
+                mean = mean + extra
+        if rz.fls_azimuth_sidelobe_db is not None:
+            if self._sidelobes is None:
+                fov = np.deg2rad(c.horizontal_fov_deg)
+                self._sidelobes = azimuth_sidelobe_kernel(
+                    c.n_beams,
+                    fov / c.n_beams,
+                    np.deg2rad(c.beamwidth_deg),
+                    rz.fls_azimuth_sidelobe_db,
+                )
+            mean = add_azimuth_sidelobes(mean, self._sidelobes)
+        return mean
 
     @property
     def rays_per_frame(self) -> int:
@@ -131,11 +172,13 @@ class ForwardLookingSonar:
             m.specular,
             1.0,
             self._neighbours,
+            m.seabed,
+            m.object_specular,
+            m.object_gain,
         )
+        mean = self._realism(echo.mean, hits, p, dirs)
         r = np.broadcast_to(self.ranges[None, :], echo.mean.shape).reshape(-1)
-        img = finish_samples(echo.mean.reshape(-1), r, m.alpha_db_m, c.acoustic, rng).reshape(
-            echo.mean.shape
-        )
+        img = finish_samples(mean.reshape(-1), r, m.alpha_db_m, c.acoustic, rng).reshape(mean.shape)
         return FLSFrame(
             image=np.ascontiguousarray(img.T),
             ranges=self.ranges,

@@ -8,6 +8,7 @@ import numpy as np
 from sim.sonar.acoustics import absorption_db_per_m
 from sim.sonar.config import WaterLike
 from sim.sonar.rays import RayBackend, make_backend
+from sim.sonar.sediment import SedimentField
 
 
 def check_mount(model: mujoco.MjModel, data: mujoco.MjData, site_id: int, tolerance: float) -> int:
@@ -114,6 +115,24 @@ class SonarMount:
                 10.0 ** (ac.specular_db / 10.0) / self.mu,
                 float(np.deg2rad(ac.specular_width_deg)),
             )
+        )
+        rz = ac.realism
+        self.realism = rz
+        self.seabed = (
+            SedimentField(rz, self.mu) if rz is not None and rz.seabed_model == "sediment" else None
+        )
+        self.object_specular = (
+            None
+            if rz is None or rz.facet_specular_db is None
+            else (
+                10.0 ** (rz.facet_specular_db / 10.0) / self.mu,
+                float(np.deg2rad(rz.facet_width_deg)),
+            )
+        )
+        self.object_gain = (
+            1.0
+            if rz is None or rz.object_mu_db is None
+            else 10.0 ** ((rz.object_mu_db - ac.lambert_mu_db) / 10.0)
         )
         # rays slightly beyond max_range still spread part of their footprint inside it
         self.cutoff = 1.25 * config.max_range

@@ -242,6 +242,19 @@ class EmbreeRays:
             MujocoRays(model, bodyexclude, flg_static=False) if self.dyn_geoms.size else None
         )
 
+    def cast_static(self, origins: np.ndarray, dirs: np.ndarray, cutoff: float) -> RayHits:
+        """Rays from many origins (N, 3) world m against the static scene only (secondary
+        rays of target corner returns)."""
+        n = dirs.shape[0]
+        if self.scene is None or n == 0:
+            return RayHits(np.full(n, np.inf), np.full(n, -1, np.int32), np.zeros((n, 3)))
+        o = (np.asarray(origins, float) - self.center).astype(np.float32)
+        tmax = np.full(n, cutoff, np.float32)
+        res = self.scene.run(o, np.ascontiguousarray(dirs, np.float32), tmax, output=1)
+        prim = res["primID"]
+        dist = np.where(prim >= 0, res["tfar"], np.inf).astype(np.float64)
+        return RayHits(dist, self.face_geom[prim], self.face_normal[prim])
+
     def cast(
         self, data: mujoco.MjData, origin: np.ndarray, dirs: np.ndarray, cutoff: float
     ) -> RayHits:

@@ -19,8 +19,10 @@ import numpy as np
 from scipy import ndimage
 
 from sim.sonar.acoustics import beam_pattern, finish_samples
+from sim.sonar.chain import SideScanChain
 from sim.sonar.config import SSSConfig, WaterLike
-from sim.sonar.echo import form_echo
+from sim.sonar.echo import Echo, form_echo
+from sim.sonar.glint import corner_returns
 from sim.sonar.mount import SonarMount
 
 _PROBE_DEG = np.array([60.0, 65.0, 70.0, 75.0, 80.0, 85.0, 90.0])
@@ -137,6 +139,8 @@ class SideScanSonar:
             ]
         )
         self._fan_cache = None
+        rz = c.acoustic.realism
+        self.chain = SideScanChain(c, self.mount, self.ranges) if rz is not None else None
 
     # -- geometry -----------------------------------------------------------------------
     def _altitude(self, data, origin, R) -> float:
@@ -208,6 +212,31 @@ class SideScanSonar:
         gain = (self.b_along[:, None] * cp * self.dpsi) * (bv * dtheta)[None, :]
         return d, dd, (gain * self.mount.sl * self.mount.mu).reshape(-1)
 
+    def _add_corners(self, mean, hits, origin, dirs, gain, rows):
+        """mean plus the objects' corner returns (when ``corner_gain_db`` is set)."""
+        m, c = self.mount, self.config
+        rz = m.realism
+        if rz is None or rz.corner_gain_db is None:
+            return mean
+        extra = corner_returns(
+            m.backend,
+            origin,
+            dirs,
+            hits,
+            gain,
+            rows,
+            m.geom_object_id,
+            m.geom_reflectivity,
+            10.0 ** (rz.corner_gain_db / 10.0) / m.mu,
+            np.deg2rad(rz.corner_width_deg),
+            m.alpha_db_m,
+            c.min_range,
+            self.bin_width,
+            mean.shape[0],
+            mean.shape[1],
+        )
+        return mean if extra is None else mean + extra
+
     # -- ping ---------------------------------------------------------------------------
     def ping(self, data: mujoco.MjData, rng: np.random.Generator) -> SSSPing:
         """Simulate one ping at the current state of ``data`` (positions from mj_forward/step)."""
@@ -247,8 +276,12 @@ class SideScanSonar:
                 m.specular,
                 1.0,
                 nbrs,
+                m.seabed,
+                m.object_specular,
+                m.object_gain,
             )
             mean, labels, pos = echo.mean, echo.labels, echo.hit_position
+            mean = self._add_corners(mean, hits, p_port, dirs, gain, rows)
         else:
             out = []
             for k, p in enumerate((p_port, p_stbd)):
@@ -272,14 +305,27 @@ class SideScanSonar:
                         m.specular,
                         1.0,
                         nbrs[: n_side - 1],
+                        m.seabed,
+                        m.object_specular,
+                        m.object_gain,
                     )
+                )
+                out[-1] = Echo(
+                    self._add_corners(
+                        out[-1].mean, h, p, dirs[sl], gain[sl], np.zeros(n_side, np.int64)
+                    ),
+                    out[-1].labels,
+                    out[-1].hit_position,
                 )
             mean = np.concatenate([e.mean for e in out])
             labels = np.concatenate([e.labels for e in out])
             pos = np.concatenate([e.hit_position for e in out])
-        r2 = np.concatenate([self.ranges, self.ranges])
-        inten = finish_samples(mean.reshape(-1), r2, m.alpha_db_m, c.acoustic, rng)
-        inten = inten.reshape(2, S)
+        if self.chain is not None:
+            inten = self.chain.finish(mean, altitude, 0.5 * (p_port + p_stbd), rng)
+        else:
+            r2 = np.concatenate([self.ranges, self.ranges])
+            inten = finish_samples(mean.reshape(-1), r2, m.alpha_db_m, c.acoustic, rng)
+            inten = inten.reshape(2, S)
         return SSSPing(
             intensity=np.concatenate([inten[0, ::-1], inten[1]]),
             slant_range=self.slant_range,

@@ -118,24 +118,72 @@ def _fit(mesh: trimesh.Trimesh, size: tuple[float, float, float]) -> trimesh.Tri
     return mesh
 
 
+def wigley_hull(length: float, beam: float, draft: float, freeboard: float, n=(48, 12)):
+    """Closed hull surface of the Wigley parabolic hull (Wigley 1934; the ITTC benchmark
+    hull form): half-breadth y = (B/2)(1 − (2x/L)²)(1 − (z/T)²) below the waterline
+    (−T ≤ z ≤ 0), walls carried up vertically to the deck at z = freeboard, deck closed.
+    Local frame: x forward, z up, waterline at z = 0."""
+    nx, nz = n
+    x = np.linspace(-0.5 * length, 0.5 * length, nx)
+    z = np.concatenate([np.linspace(-draft, 0.0, nz), [freeboard]])
+    zz = np.minimum(z, 0.0)
+    y = 0.5 * beam * (1 - (2 * x[:, None] / length) ** 2) * (1 - (zz[None, :] / draft) ** 2)
+    X = np.broadcast_to(x[:, None], y.shape)
+    Z = np.broadcast_to(z[None, :], y.shape)
+    port = np.stack([X, y, Z], -1).reshape(-1, 3)
+    stbd = np.stack([X, -y, Z], -1).reshape(-1, 3)
+    nzz = z.size
+    i, j = np.meshgrid(np.arange(nx - 1), np.arange(nzz - 1), indexing="ij")
+    a = (i * nzz + j).ravel()
+    b, c, d = a + nzz, a + nzz + 1, a + 1
+    side = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    off = port.shape[0]
+    top = np.arange(nx - 1) * nzz + nzz - 1  # deck edge vertices
+    deck = np.concatenate(
+        [
+            np.stack([top, off + top + nzz, top + nzz], 1),
+            np.stack([top, off + top, off + top + nzz], 1),
+        ]
+    )
+    faces = np.concatenate([side, side[:, ::-1] + off, deck])
+    return trimesh.Trimesh(np.concatenate([port, stbd]), faces, process=False)
+
+
 def _shipwreck(size, rng: np.random.Generator) -> trimesh.Trimesh:
+    """A small steel coaster wreck: Wigley hull with sheer-less deck, bridge house,
+    funnel, hatch coaming, foremast with a derrick, and debris alongside; lying listed and
+    trimmed. Proportions of a ~20 m coaster (L/B ≈ 4, depth ≈ 0.5 B)."""
     L, B, H = size
-    hull_h = 0.6 * H
-    hull = trimesh.creation.capsule(height=1.0, radius=0.5, count=[24, 24])
-    hull.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
-    hull.vertices = hull.vertices * [L / 2.0, B, 2 * hull_h]
-    v = hull.vertices.copy()
-    v[:, 2] = np.minimum(v[:, 2], 0.0)  # flatten the upper half into the deck (stays watertight)
-    bow = np.clip((v[:, 0] - 0.15 * L) / (0.35 * L), 0, 1)  # sharpen the bow
-    v[:, 1] *= 1.0 - 0.85 * bow**1.5
-    hull.vertices = v
-    hull.apply_translation([0, 0, hull_h])
-    house = trimesh.creation.box([0.22 * L, 0.55 * B, 0.25 * H])
-    house.apply_translation([-0.18 * L, 0, hull_h + 0.125 * H])
-    mast = trimesh.creation.cylinder(radius=0.02 * B + 0.05, height=0.35 * H)
-    mast.apply_translation([0.12 * L, 0, hull_h + 0.175 * H])
-    m = trimesh.util.concatenate([hull, house, mast])
-    # wreck lying listed to one side, a little trimmed
+    draft, free = 0.35 * H, 0.2 * H
+    parts = [wigley_hull(L, B, draft, free)]
+    deck = free
+
+    def box(ext, at):
+        m = trimesh.creation.box(ext)
+        m.apply_translation(at)
+        parts.append(m)
+
+    def cyl(radius, height, at, tilt=0.0):
+        m = trimesh.creation.cylinder(radius=radius, height=height, sections=16)
+        m.apply_translation([0, 0, 0.5 * height])
+        if tilt:
+            m.apply_transform(trimesh.transformations.rotation_matrix(tilt, [0, 1, 0]))
+        m.apply_translation(at)
+        parts.append(m)
+
+    box([0.16 * L, 0.55 * B, 0.22 * H], [-0.28 * L, 0, deck + 0.11 * H])  # bridge house
+    box([0.1 * L, 0.4 * B, 0.08 * H], [-0.28 * L, 0, deck + 0.26 * H])  # wheelhouse top
+    cyl(0.07 * B, 0.2 * H, [-0.38 * L, 0, deck])  # funnel
+    box([0.22 * L, 0.45 * B, 0.06 * H], [0.05 * L, 0, deck + 0.03 * H])  # hatch coaming
+    cyl(0.025 * B + 0.03, 0.42 * H, [0.25 * L, 0, deck])  # foremast
+    cyl(0.015 * B + 0.02, 0.25 * L, [0.25 * L, 0, deck + 0.1 * H], tilt=-1.2)  # derrick
+    for _ in range(4):  # debris alongside (plates, a drum)
+        px = rng.uniform(-0.4, 0.4) * L
+        py = rng.choice([-1, 1]) * rng.uniform(0.3, 0.45) * B
+        box(
+            [rng.uniform(0.4, 1.2), rng.uniform(0.3, 0.8), rng.uniform(0.05, 0.2)], [px, py, -draft]
+        )
+    m = trimesh.util.concatenate(parts)
     roll = np.deg2rad(rng.uniform(8, 25)) * rng.choice([-1, 1])
     pitch = np.deg2rad(rng.uniform(-3, 3))
     m.apply_transform(trimesh.transformations.euler_matrix(roll, pitch, 0.0))
@@ -212,6 +260,8 @@ def object_mesh(spec: ObjectSpec) -> tuple[np.ndarray, np.ndarray]:
     if spec.object_class.articulated:
         raise ValueError(f"object kind {spec.kind!r} is articulated and has no single mesh")
     params = {"kind": spec.kind, "size": list(spec.bbox), "seed": int(spec.seed)}
+    if spec.kind == "shipwreck":
+        params["shape"] = "wigley-coaster-1"  # the generator changed: new cache entries
 
     def build():
         m = _GENERATORS[spec.kind](spec.bbox, np.random.default_rng(spec.seed))

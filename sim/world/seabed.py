@@ -48,6 +48,9 @@ class SeabedSpec:
                       direction, counter-clockwise from east).
     slope_deg, slope_direction_deg : downhill gradient and its direction.
     rock_density    : rocks per m²; rock_size : (min, max) rock diameter, m.
+    relief, relief_scale : rms (m) and correlation length (m) of gentle large-scale
+                      undulation added to any generated kind (0: none); the altitude
+                      autopilot then rides it, so the side-scan nadir wanders.
     grid_path / grid: depth grid (ny, nx), metres positive down, for kind "grid";
                       ``resolution`` is its spacing.
     """
@@ -66,6 +69,8 @@ class SeabedSpec:
     rock_density: float = 0.01
     rock_size: tuple[float, float] = (0.3, 1.5)
     center_xy: tuple[float, float] = (0.0, 0.0)
+    relief: float = 0.0
+    relief_scale: float = 25.0
     grid_path: str | None = None
     grid: np.ndarray | None = field(default=None, compare=False, repr=False)
 
@@ -90,6 +95,8 @@ class SeabedSpec:
         if not 0.0 <= float(self.slope_deg) < 60.0:
             raise ValueError(f"seabed.slope_deg must be in [0, 60), got {self.slope_deg!r}")
         _positive("seabed.rock_density", self.rock_density, allow_zero=True)
+        _positive("seabed.relief", self.relief, allow_zero=True)
+        _positive("seabed.relief_scale", self.relief_scale)
         lo, hi = (float(v) for v in self.rock_size)
         if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):
             raise ValueError(
@@ -242,6 +249,9 @@ def height_grid(spec: SeabedSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             cap = h * np.sqrt(np.clip(1.0 - u * u - v * v, 0.0, None))
             np.maximum(bump[j0:j1, i0:i1], cap, out=bump[j0:j1, i0:i1])
         z += bump
+    if spec.relief > 0:  # own stream: the other draws stay as without relief
+        relief_rng = np.random.default_rng([spec.seed, 101])
+        z += spec.relief * _smooth_noise((ny, nx), spec.relief_scale / r, relief_rng)
     return x, y, z
 
 
