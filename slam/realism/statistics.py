@@ -73,6 +73,7 @@ class SideStatistics:
     water_column_db: float  # median water-column intensity re seabed-profile peak, dB
     dynamic_range_db: float
     saturation: float
+    headroom_db: float  # 10·log10(clip level / P99 of the side's intensity), dB (>= 0)
     n_patches: int
     bottom_fraction: float
     hist_intensity: np.ndarray = field(repr=False)
@@ -86,6 +87,7 @@ class SideStatistics:
         "water_column_db",
         "dynamic_range_db",
         "saturation",
+        "headroom_db",
         "n_patches",
         "bottom_fraction",
     )
@@ -227,6 +229,7 @@ def side_statistics(
     wc = water_column_mask(track, side.shape, cfg.guard)
     wc_db = 10.0 * np.log10(np.median(floored[wc]) / peak) if wc.any() else float("nan")
     lo, hi = np.percentile(floored, cfg.dr_percentiles)
+    hi_raw = max(float(np.percentile(side, cfg.dr_percentiles[1])), clip * 1e-30)
     return SideStatistics(
         cv_amplitude=float(np.median(patch_cv(amp))),
         db_std=float(np.median(np.std(10.0 * np.log10(patches), axis=(1, 2), ddof=1))),
@@ -235,6 +238,7 @@ def side_statistics(
         water_column_db=float(wc_db),
         dynamic_range_db=float(10.0 * np.log10(hi / lo)),
         saturation=float(np.mean(side >= clip)),
+        headroom_db=float(10.0 * np.log10(clip / min(hi_raw, clip))),
         n_patches=int(patches.shape[0]),
         bottom_fraction=track.found_fraction,
         hist_intensity=intensity_histogram(floored, seabed),
