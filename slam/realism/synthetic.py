@@ -7,8 +7,10 @@ mean), the rest seabed = gain × texture × speckle, clipped at full scale 1:
 
 * texture: a Gaussian field smoothed over ``texture_cell`` samples and pings, scaled to
   ``texture_db`` rms in dB, converted to a unit-mean linear factor;
-* speckle: |z|² of a complex Gaussian field with AR(1) correlation ``corr_range`` along
-  range and ``corr_ping`` across pings (unit mean; its amplitude is Rayleigh);
+* speckle: |z|² of complex Gaussian fields with AR(1) correlation ``corr_range`` along
+  range and ``corr_ping`` across pings, ``looks`` of them averaged (a fractional look is
+  added with its fraction as weight, so the result is continuous in ``looks``; unit mean;
+  one look is Rayleigh amplitude);
 * gain: the seabed mean intensity re full scale, ``gain_db``.
 """
 
@@ -31,7 +33,9 @@ PARAMETERS = (
     Parameter("corr_range", 0.0, 0.9, 0.3),
     Parameter("corr_ping", 0.0, 0.9, 0.3),
     Parameter("water_column_db", -70.0, -10.0, -30.0),
+    Parameter("looks", 1.0, 6.0, 1.5),
 )
+_MAX_LOOKS = 6
 
 
 def ar1_field(
@@ -69,6 +73,17 @@ class StatisticalSideScan:
                 f"water_column_fraction = {self.water_column_fraction}; allowed 0.05 .. 0.8"
             )
 
+    @staticmethod
+    def _speckle(shape, v: dict[str, float], rng: np.random.Generator) -> np.ndarray:
+        """Unit-mean speckle intensity of ``v["looks"]`` averaged correlated looks (the
+        draws do not depend on ``looks``: always _MAX_LOOKS fields, weighted)."""
+        w = np.clip(v["looks"] - np.arange(_MAX_LOOKS), 0.0, 1.0)
+        out = np.zeros(shape)
+        for k in range(_MAX_LOOKS):
+            re, im = (ar1_field(shape, v["corr_ping"], v["corr_range"], rng) for _ in "ri")
+            out += w[k] * (re * re + im * im) / 2.0
+        return out / w.sum()
+
     def __call__(self, values: dict[str, float]) -> np.ndarray:
         v = {p.name: p.initial for p in PARAMETERS} | dict(values)
         unknown = set(v) - {p.name for p in PARAMETERS}
@@ -83,8 +98,7 @@ class StatisticalSideScan:
             g /= g.std()
             tex = 10.0 ** (v["texture_db"] * g / 10.0)
             tex /= tex.mean()
-            re, im = (ar1_field((p, s - nw), v["corr_ping"], v["corr_range"], rng) for _ in "ri")
-            speckle = (re * re + im * im) / 2.0
+            speckle = self._speckle((p, s - nw), v, rng)
             seabed = 10.0 ** (v["gain_db"] / 10.0) * tex * speckle
             wc = rng.exponential(10.0 ** ((v["gain_db"] + v["water_column_db"]) / 10.0), (p, nw))
             sides.append(np.minimum(np.concatenate([wc, seabed], axis=1), FULL_SCALE))

@@ -18,11 +18,18 @@ def test_fit_recovers_the_true_parameters_from_another_realization():
     """Target drawn with seed 1 at known values; the model (seed 0, other speckle and
     texture draws) starts elsewhere and must land near the truth."""
     truth = dict(
-        gain_db=-9.0, texture_db=2.5, corr_range=0.55, corr_ping=0.5, water_column_db=-40.0
+        gain_db=-9.0,
+        texture_db=2.5,
+        corr_range=0.55,
+        corr_ping=0.5,
+        water_column_db=-40.0,
+        looks=2.5,
     )
     target = waterfall_statistics(StatisticalSideScan(seed=1, **SIZE)(truth))
     r = calibrate(StatisticalSideScan(seed=0, **SIZE), target, PARAMETERS, model_config=MODEL_STATS)
-    tol = dict(gain_db=1.0, texture_db=0.5, corr_range=0.08, corr_ping=0.08, water_column_db=2.0)
+    tol = dict(
+        gain_db=1.0, texture_db=0.5, corr_range=0.08, corr_ping=0.08, water_column_db=2.0, looks=0.5
+    )
     for k, t in tol.items():
         assert r.values[k] == pytest.approx(truth[k], abs=t), k
     assert r.loss < 0.1 * r.initial_loss
