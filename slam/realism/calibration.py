@@ -10,10 +10,10 @@ with steps of ``diff_step`` of each range) in coordinates scaled to [0, 1] (log-
 when ``log``). The simulator should be seeded the same way at every call (common random
 numbers), so the objective is deterministic.
 
-Objective: the mean over the features below of the squared residual *in units of the
-issue-11 tolerance* (so 1 means "on average at the edge of the tolerance"), both sides
-averaged: speckle CV (relative), dB std, lag-1 range, lag-1 pings, water-column level,
-dynamic range, log10(saturation + 0.001) (factor 2 ↔ log10 2), the texture (LBP) JS
+Objective: the mean over the features below, on each side, of the squared residual *in
+units of the issue-11 tolerance* (1 = at the edge of the tolerance): speckle CV (relative), dB std, lag-1 range, lag-1 pings, water-column level,
+dynamic range, log10(saturation + SATURATION_FLOOR) (factor 2 ↔ log10 2; the floor keeps
+the residual smooth where a model barely clips), the texture (LBP) JS
 distance to the recording's histogram over 0.1, and — only to guide the gain where a model
 does not clip yet — the headroom (clip level re P99, dB) in 1-dB units. A model call that fails (``ValueError``: no seabed
 in the simulated image, …) costs ``FAILED_LOSS``.
@@ -29,13 +29,10 @@ import numpy as np
 from scipy.optimize import least_squares, minimize
 from scipy.spatial.distance import jensenshannon
 
-from slam.realism.compare import TEXTURE_JS_MAX, TOLERANCES
+from slam.realism.compare import SATURATION_FLOOR, TEXTURE_JS_MAX, TOLERANCES
 from slam.realism.statistics import RealismConfig, WaterfallStatistics, waterfall_statistics
 
 FAILED_LOSS = 1e4
-#: added to saturation fractions before the log (log10 of 0 is -inf; a smooth floor keeps
-#: the residual differentiable where a model barely clips).
-SATURATION_FLOOR = 1e-3
 FEATURES = (
     "cv_amplitude",
     "db_std",
@@ -51,6 +48,11 @@ FEATURES = (
 #: headroom (clip re P99, 1-dB units) only guides the gain where nothing clips yet.
 CONVERGENCE_FEATURES = FEATURES[:-1]
 HEADROOM_TOLERANCE_DB = 1.0
+SIDES = ("port", "starboard")
+#: residual keys: every convergence feature on both sides, then the guides.
+RESIDUAL_KEYS = tuple(f"{k}.{s}" for k in CONVERGENCE_FEATURES for s in SIDES) + tuple(
+    f"headroom_db.{s}" for s in SIDES
+)
 
 
 class CalibrationError(ValueError):
@@ -89,33 +91,34 @@ class Parameter:
         return self.lo + u * (self.hi - self.lo)
 
 
+def _one(key: str, s: float, r: float) -> float:
+    _, kind, tol = TOLERANCES[key]
+    if kind == "rel":
+        return (s - r) / (tol * abs(r))
+    if kind == "abs":
+        return (s - r) / tol
+    ls, lr = (math.log10(x + SATURATION_FLOOR) for x in (s, r))
+    return (ls - lr) / math.log10(tol)
+
+
 def residuals(sim: WaterfallStatistics, real: WaterfallStatistics) -> dict[str, float]:
-    """Per-feature residual in tolerance units (signed; nan when a side lacks it)."""
+    """Residual per feature and side (key ``"<feature>.<side>"``) in tolerance units,
+    signed; nan when a statistic is missing."""
     out = {}
-    for key in FEATURES[:-2]:
-        s = np.nanmean([getattr(v, key) for v in sim.sides().values()])
-        r = np.nanmean([getattr(v, key) for v in real.sides().values()])
-        _, kind, tol = TOLERANCES[key]
-        if kind == "rel":
-            out[key] = (s - r) / (tol * abs(r))
-        elif kind == "abs":
-            out[key] = (s - r) / tol
-        else:
-            ls, lr = (math.log10(x + SATURATION_FLOOR) for x in (s, r))
-            out[key] = (ls - lr) / math.log10(tol)
-    js = [
-        jensenshannon(real.sides()[k].hist_lbp, sim.sides()[k].hist_lbp, base=2)
-        for k in ("port", "starboard")
-    ]
-    out["texture_js"] = float(np.mean(js)) / TEXTURE_JS_MAX
-    h = [np.mean([v.headroom_db for v in x.sides().values()]) for x in (sim, real)]
-    out["headroom_db"] = (h[0] - h[1]) / HEADROOM_TOLERANCE_DB
+    for side in SIDES:
+        a, b = sim.sides()[side], real.sides()[side]
+        for key in FEATURES[:-2]:
+            out[f"{key}.{side}"] = _one(key, float(getattr(a, key)), float(getattr(b, key)))
+        js = jensenshannon(b.hist_lbp, a.hist_lbp, base=2)
+        out[f"texture_js.{side}"] = float(js) / TEXTURE_JS_MAX
+        out[f"headroom_db.{side}"] = (a.headroom_db - b.headroom_db) / HEADROOM_TOLERANCE_DB
     return out
 
 
 def residual_vector(res: dict[str, float]) -> np.ndarray:
-    """Residuals in FEATURES order; a missing statistic (nan) counts as 10 tolerances."""
-    v = np.array([res[k] for k in FEATURES], dtype=np.float64)
+    """Residuals, convergence features first (RESIDUAL_KEYS order); a missing statistic
+    (nan) counts as 10 tolerances."""
+    v = np.array([res[k] for k in RESIDUAL_KEYS], dtype=np.float64)
     return np.where(np.isfinite(v), v, 10.0)
 
 
@@ -126,7 +129,7 @@ def loss(res: dict[str, float]) -> float:
 
 def _worst(rv: np.ndarray) -> float:
     """Largest |residual| over the convergence features."""
-    return float(np.abs(rv[: len(CONVERGENCE_FEATURES)]).max())
+    return float(np.abs(rv[: 2 * len(CONVERGENCE_FEATURES)]).max())
 
 
 def _simplex(u: np.ndarray, step: float = 0.15) -> np.ndarray:
@@ -181,7 +184,7 @@ def calibrate(
     if len(set(names)) != len(names):
         raise ValueError(f"parameter names must be unique, got {names}")
     cache: dict[tuple, tuple[np.ndarray, WaterfallStatistics | None, dict]] = {}
-    failed = np.full(len(FEATURES), math.sqrt(FAILED_LOSS))
+    failed = np.full(len(RESIDUAL_KEYS), math.sqrt(FAILED_LOSS))
 
     def values_of(u: np.ndarray) -> dict[str, float]:
         return {p.name: p.from_unit(float(x)) for p, x in zip(parameters, u, strict=True)}
@@ -236,7 +239,7 @@ def calibrate(
     rv, st, res = evaluate(u)
     best = float(np.mean(rv**2))
     if st is None or not _worst(rv) <= max_residual:
-        conv = {k: v for k, v in res.items() if k in CONVERGENCE_FEATURES}
+        conv = {k: v for k, v in res.items() if k.split(".")[0] in CONVERGENCE_FEATURES}
         off = sorted(conv.items(), key=lambda kv: -abs(kv[1]))[:3]
         worst = ", ".join(f"{k} {v:+.1f} tolerances" for k, v in off)
         raise CalibrationError(

@@ -16,7 +16,10 @@ MODEL_STATS = RealismConfig(full_scale=FULL_SCALE)
 
 def test_fit_recovers_the_true_parameters_from_another_realization():
     """Target drawn with seed 1 at known values; the model (seed 0, other speckle and
-    texture draws) starts elsewhere and must land near the truth."""
+    texture draws) starts elsewhere and must land near the truth. The bounds follow from
+    the fit's own stopping rule (every statistic within its issue-11 tolerance): e.g.
+    lag-1 ±0.1 is about ±0.1 on the AR(1) coefficient near 0.5 (amplitude correlation
+    ≈ 0.92·phi²), plus the difference between the two realizations."""
     truth = dict(
         gain_db=-9.0,
         texture_db=2.5,
@@ -28,12 +31,12 @@ def test_fit_recovers_the_true_parameters_from_another_realization():
     target = waterfall_statistics(StatisticalSideScan(seed=1, **SIZE)(truth))
     r = calibrate(StatisticalSideScan(seed=0, **SIZE), target, PARAMETERS, model_config=MODEL_STATS)
     tol = dict(
-        gain_db=1.0, texture_db=0.5, corr_range=0.08, corr_ping=0.08, water_column_db=2.0, looks=0.5
+        gain_db=1.0, texture_db=0.5, corr_range=0.12, corr_ping=0.12, water_column_db=2.0, looks=0.5
     )
     for k, t in tol.items():
         assert r.values[k] == pytest.approx(truth[k], abs=t), k
     assert r.loss < 0.1 * r.initial_loss
-    assert all(abs(v) <= 1.0 for v in r.residuals.values())
+    assert all(abs(v) <= 1.0 for k, v in r.residuals.items() if not k.startswith("headroom"))
 
 
 def test_unreachable_target_raises_did_not_converge():
