@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.cli.realism_io import load_any, parse_pings
+from sim.cli.realism_io import first_return_for, load_any, parse_pings
 from slam.realism.bottom import first_bottom_return
 from slam.realism.calibration import CalibrationError, Parameter, calibrate
 from slam.realism.compare import compare, format_table, json_ready
@@ -49,6 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "simulator fields)",
     )
     parser.add_argument("--scale", choices=("intensity", "amplitude"), default=None)
+    parser.add_argument(
+        "--bottom",
+        choices=("detect", "altitude"),
+        default="detect",
+        help="REAL's first bottom return: detected (default) or from its altitude",
+    )
     parser.add_argument("--pings", default="first", help="pings to fit (A:B, first, second, all)")
     parser.add_argument("--report-pings", default="second", help="pings to report on too")
     parser.add_argument("--altitude", type=float, default=None, help="m (default: recording)")
@@ -149,9 +155,14 @@ def run(args: argparse.Namespace) -> int:
         fit_sl = parse_pings(args.pings, rec.n_pings)
         rep_sl = parse_pings(args.report_pings, rec.n_pings)
         fit_rec = rec.pings(fit_sl.start, fit_sl.stop)
+        rep_rec = rec.pings(rep_sl.start, rep_sl.stop)
         try:
-            target = waterfall_statistics(fit_rec.intensity)
-            report = waterfall_statistics(rec.pings(rep_sl.start, rep_sl.stop).intensity)
+            target = waterfall_statistics(
+                fit_rec.intensity, first_return=first_return_for(fit_rec, args.bottom)
+            )
+            report = waterfall_statistics(
+                rep_rec.intensity, first_return=first_return_for(rep_rec, args.bottom)
+            )
         except ValueError as exc:
             raise ValueError(f"REAL {args.real}: {exc}") from exc
         altitude, max_range = survey_geometry(fit_rec, args.altitude, args.max_range)

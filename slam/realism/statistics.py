@@ -196,10 +196,16 @@ def _nanmedian(x: np.ndarray) -> float:
 
 
 def side_statistics(
-    side: np.ndarray, clip: float, cfg: RealismConfig, name: str = "side"
+    side: np.ndarray,
+    clip: float,
+    cfg: RealismConfig,
+    name: str = "side",
+    first_return: np.ndarray | None = None,
 ) -> SideStatistics:
     """Statistics of one side (P, S) of linear intensity, near range first.
 
+    ``first_return`` (P,) sample indices (nan = none) replaces the detector, e.g. from a
+    recording's altitude (``first_return_from_altitude``).
     Raises ValueError naming the side when it has too few pings/samples or no seabed.
     """
     side = np.nan_to_num(np.asarray(side, dtype=np.float64), nan=0.0)
@@ -209,7 +215,13 @@ def side_statistics(
             f"{name}: recording too short: {p} pings x {s} samples per side, need at least "
             f"{2 * cfg.patch} pings and {4 * cfg.patch} samples"
         )
-    track = first_bottom_return(side)
+    if first_return is None:
+        track = first_bottom_return(side)
+    else:
+        fr = np.asarray(first_return, dtype=np.float64)
+        if fr.shape != (p,):
+            raise ValueError(f"{name}: first_return must have shape ({p},), got {fr.shape}")
+        track = BottomTrack(first_return=np.floor(fr), blank_end=np.zeros(p))
     if track.found_fraction < cfg.min_bottom_fraction:
         raise ValueError(
             f"{name}: no seabed: a first bottom return was found on {track.found_fraction:.0%} "
@@ -259,10 +271,25 @@ def clip_level(intensity: np.ndarray, full_scale: float | None) -> float:
     return m * (1.0 - 1e-6)
 
 
+def first_return_from_altitude(
+    altitude_m: np.ndarray, slant_range_m: float, samples_per_side: int
+) -> np.ndarray:
+    """(P,) first-return sample index of a flat seabed under the sonar: altitude over the
+    range per sample (nan where the altitude is not positive or beyond the range)."""
+    a = np.asarray(altitude_m, dtype=np.float64)
+    if not slant_range_m > 0:
+        raise ValueError(f"slant_range_m must be > 0, got {slant_range_m}")
+    idx = a / slant_range_m * samples_per_side
+    return np.where((a > 0) & (idx < samples_per_side), idx, np.nan)
+
+
 def waterfall_statistics(
-    intensity: np.ndarray, cfg: RealismConfig = RealismConfig()
+    intensity: np.ndarray,
+    cfg: RealismConfig = RealismConfig(),
+    first_return: np.ndarray | None = None,
 ) -> WaterfallStatistics:
-    """Statistics of both sides of a (P, 2S) linear-intensity waterfall."""
+    """Statistics of both sides of a (P, 2S) linear-intensity waterfall; ``first_return``
+    (P,) optionally gives the first bottom return (both sides) instead of the detector."""
     port, stbd = split_sides(intensity)
     if not np.isfinite(intensity).any():
         raise ValueError("waterfall holds no finite sample")
@@ -272,8 +299,8 @@ def waterfall_statistics(
         )
     clip = clip_level(intensity, cfg.full_scale)
     return WaterfallStatistics(
-        port=side_statistics(port, clip, cfg, "port"),
-        starboard=side_statistics(stbd, clip, cfg, "starboard"),
+        port=side_statistics(port, clip, cfg, "port", first_return),
+        starboard=side_statistics(stbd, clip, cfg, "starboard", first_return),
     )
 
 
