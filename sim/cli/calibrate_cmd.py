@@ -95,8 +95,11 @@ def _model(args, altitude: float, max_range: float, samples: int):
         return model, PARAMETERS, RealismConfig(full_scale=FULL_SCALE)
     from sim.realism.survey import RaycastSurvey, SurveySpec  # mujoco only for this model
 
-    spec = SurveySpec(altitude, max_range, samples, pings=args.sim_pings, preset=args.preset)
-    survey = RaycastSurvey(SurveySpec(**{**spec.__dict__, "seed": args.seed}))
+    survey = RaycastSurvey(
+        SurveySpec(
+            altitude, max_range, samples, pings=args.sim_pings, preset=args.preset, seed=args.seed
+        )
+    )
     return survey, RAYCAST_PARAMETERS, RealismConfig(full_scale=survey.full_scale({}))
 
 
