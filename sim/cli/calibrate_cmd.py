@@ -62,6 +62,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sim-pings", type=int, default=32, help="pings per simulated run")
     parser.add_argument("--max-evaluations", type=int, default=60, help="model runs at most")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--save-sim",
+        default=None,
+        help="also write the calibrated model's waterfall (.npy, linear intensity) for "
+        "`undersea realism SIM REAL --plot`",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -195,6 +201,8 @@ def run(args: argparse.Namespace) -> int:
         "loss_after": result.loss,
     }
     write_atomic(out, preset_toml(args, result.values, result, meta))
+    if args.save_sim:
+        np.save(args.save_sim, np.asarray(simulate(result.values), dtype=np.float32))
     before, after = compare(result.before, target), compare(result.after, target)
     held_out = compare(result.after, report)
     if args.json:

@@ -29,7 +29,9 @@ def test_statistical_fit_writes_a_preset_with_before_and_after(tmp_path, capsys)
     img = StatisticalSideScan(pings=96, samples_per_side=320, seed=7)(TRUTH)
     rec = _recording(tmp_path / "rec.npz", img)
     out = tmp_path / "my_sonar.toml"
+    sim = tmp_path / "sim.npy"
     args = ["calibrate", str(rec), "--model", "statistical", "--out", str(out), "--json"]
+    args += ["--save-sim", str(sim)]
     assert main([*args, "--pings", "all", "--report-pings", "all", "--sim-pings", "96"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["after"]["all_within"] is True
@@ -39,6 +41,7 @@ def test_statistical_fit_writes_a_preset_with_before_and_after(tmp_path, capsys)
     assert t["calibration"]["loss_after"] < t["calibration"]["loss_before"]
     assert t["statistical_model"]["texture_db"] == pytest.approx(TRUTH["texture_db"], abs=0.6)
     assert set(t["calibration"]["after"]) == {"port", "starboard"}
+    assert np.load(sim).shape == (96, 640)
 
 
 def test_unreachable_recording_exits_2_and_writes_nothing(tmp_path, capsys, rng):
