@@ -184,6 +184,11 @@ def run(args: argparse.Namespace) -> int:
             model_config=model_cfg,
         )
     except (ValueError, CalibrationError) as exc:
+        best = getattr(exc, "best", None)
+        if best is not None:  # show where the fit got to, on stderr
+            vals = ", ".join(f"{k} = {v:.4g}" for k, v in best.values.items())
+            print(f"best found: {vals}", file=sys.stderr)
+            print(format_table(compare(best.after, target)), file=sys.stderr)
         print(f"undersea calibrate: {exc}; nothing written", file=sys.stderr)
         return 2
     meta = {

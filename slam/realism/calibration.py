@@ -56,7 +56,12 @@ RESIDUAL_KEYS = tuple(f"{k}.{s}" for k in CONVERGENCE_FEATURES for s in SIDES) +
 
 
 class CalibrationError(ValueError):
-    """The fit did not converge (the message says which statistics are off and why)."""
+    """The fit did not converge (the message says which statistics are off and why);
+    ``best`` holds the best result found (None when the model gave no image)."""
+
+    def __init__(self, message: str, best: CalibrationResult | None = None):
+        super().__init__(message)
+        self.best = best
 
 
 @dataclass(frozen=True)
@@ -237,23 +242,26 @@ def calibrate(
         )
         u = min((u, nm.x), key=lambda x: float(np.mean(evaluate(x)[0] ** 2)))
     rv, st, res = evaluate(u)
-    best = float(np.mean(rv**2))
-    if st is None or not _worst(rv) <= max_residual:
+    result = None
+    if st is not None:
+        result = CalibrationResult(
+            values=values_of(u),
+            initial_values=values_of(u0),
+            loss=float(np.mean(rv**2)),
+            initial_loss=float(np.mean(r0**2)),
+            residuals=res,
+            evaluations=len(cache),
+            before=st0,
+            after=st,
+        )
+    if result is None or not _worst(rv) <= max_residual:
         conv = {k: v for k, v in res.items() if k.split(".")[0] in CONVERGENCE_FEATURES}
         off = sorted(conv.items(), key=lambda kv: -abs(kv[1]))[:3]
         worst = ", ".join(f"{k} {v:+.1f} tolerances" for k, v in off)
         raise CalibrationError(
             f"calibration did not converge: a statistic is {_worst(rv):.2g} tolerances "
-            f"off (allowed {max_residual:g}; loss {best:.3g}) after "
-            f"{len(cache)} model runs; furthest off: {worst or 'no image'}"
+            f"off (allowed {max_residual:g}; loss {float(np.mean(rv**2)):.3g}) after "
+            f"{len(cache)} model runs; furthest off: {worst or 'no image'}",
+            result,
         )
-    return CalibrationResult(
-        values=values_of(u),
-        initial_values=values_of(u0),
-        loss=best,
-        initial_loss=float(np.mean(r0**2)),
-        residuals=res,
-        evaluations=len(cache),
-        before=st0,
-        after=st,
-    )
+    return result
