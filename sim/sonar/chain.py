@@ -48,7 +48,9 @@ class SideScanChain:
             if rz.speckle_correlated
             else None
         )
-        self.beam = two_way_beam(self.vbw, self.dep, c.beam_pattern, c.sidelobe_db)
+        up_floor = min(c.sidelobe_db, rz.upward_sidelobe_db)
+        self.beam = two_way_beam(self.vbw, self.dep, c.beam_pattern, up_floor)
+        self.beam_down = two_way_beam(self.vbw, self.dep, c.beam_pattern, c.sidelobe_db)
         noise = 10.0 ** (ac.noise_level_db / 10.0)
         if rz.sea_state is not None:
             bw_hz = mount.sound_speed / (2.0 * self.range_cell)
@@ -76,7 +78,7 @@ class SideScanChain:
         def ratio(g):
             down = np.arctan2(altitude, g)
             up = np.arctan2(altitude + 2.0 * depth, g)
-            return np.sqrt(self.beam(-up) / np.maximum(self.beam(-down), 1e-30))
+            return np.sqrt(self.beam(up) / np.maximum(self.beam_down(-down), 1e-30))
 
         return ratio
 
@@ -119,8 +121,14 @@ class SideScanChain:
         if self.speckle is not None:
             s = s * self.speckle.factors(rows, position, rng)
         elif self.ac.speckle != "none":
+            if self.ac.speckle == "k":
+                k = self.ac.k_shape
+                s = s * rng.gamma(k, 1.0 / k, size=s.shape)
             s = s * rng.standard_exponential(size=s.shape)
-        s = s + self.noise * rng.standard_exponential(size=s.shape)
+        if self.speckle is None and self.ac.speckle == "none":
+            s = s + self.noise  # mean intensities only: no draws (as the plain path)
+        else:
+            s = s + self.noise * rng.standard_exponential(size=s.shape)
         s = s * self.tvg[None, :]
         s = digitise(s, self.rz.receiver_gain_db, self.rz.bit_depth, self.rz.full_scale_db)
         if self.ac.log_compression:

@@ -375,7 +375,9 @@ PRESETS: dict[str, Any] = {
         vertical_beamwidth_deg=50.0,
         depression_deg=20.0,
         ping_rate_hz=14.0,
-        acoustic=AcousticConfig(realism=RealismConfig(range_cell_m=0.02, full_scale_db=154.0)),
+        acoustic=AcousticConfig(
+            realism=RealismConfig(range_cell_m=0.02, full_scale_db=158.5, volume_sv_db=-68.0)
+        ),
     ),
     "blueview_p900_90": FLSConfig(),
     "msis": MSISConfig(),

@@ -155,10 +155,22 @@ def _splat_shaped(rows, a, b, e, fc, r_bins, link, n_rows, n_bins):
 
 
 def _realistic_sigma(
-    hit, g, r, n, dirs, origin, cos_i, refl, sigma_over_cos, geom_object_id, seabed, obj_spec
+    hit,
+    g,
+    r,
+    n,
+    dirs,
+    origin,
+    cos_i,
+    refl,
+    sigma_over_cos,
+    geom_object_id,
+    seabed,
+    obj_spec,
+    obj_gain,
 ):
-    """Seabed hits: σ/μ from the sediment field (reflectivity 1); object hits: plus the
-    per-facet specular glint. Returns new (refl, σ/(μ cos θ)) arrays."""
+    """Seabed hits: σ/μ from the sediment field (reflectivity 1); object hits: Lambert
+    term × obj_gain plus the per-facet specular glint. Returns new (refl, σ/(μ cos θ))."""
     refl = refl.copy()
     soc = sigma_over_cos.copy()
     oid = np.where(hit, geom_object_id[g], -1)
@@ -169,9 +181,10 @@ def _realistic_sigma(
             s = seabed.sigma_over_mu(pts, n[sb], dirs[sb])
             refl[sb] = 1.0
             soc[sb] = s / np.maximum(cos_i[sb], 0.02)
+    ob = np.flatnonzero(oid >= 1)
+    soc[ob] *= obj_gain
     if obj_spec is not None:
         peak, w = obj_spec
-        ob = np.flatnonzero(oid >= 1)
         cn = np.minimum(cos_i[ob], 1.0)
         lobe = peak * np.exp(-0.5 * (np.arccos(cn) / w) ** 2)
         soc[ob] += lobe / np.maximum(cn, 0.05)
@@ -197,6 +210,7 @@ def form_echo(
     neighbours: np.ndarray | None = None,
     seabed=None,
     object_specular: tuple[float, float] | None = None,
+    object_gain: float = 1.0,
 ) -> Echo:
     """Bin ray hits into (rows, bins) mean intensity, labels and hit positions.
 
@@ -215,7 +229,8 @@ def form_echo(
     seabed: optional object with ``sigma_over_mu(points, normals, dirs)`` (e.g.
     :class:`sim.sonar.sediment.SedimentField`): σ/μ of the seabed hits (label 0), replacing
     ``refl·(cos²θ + specular)`` there. object_specular: (σ peak / μ, lobe width rad) of a
-    per-facet glint added to object hits (label ≥ 1), or None.
+    per-facet glint added to object hits (label ≥ 1), or None. object_gain: factor on the
+    object hits' Lambert term (a target's own μ over the seabed's ``lambert_mu_db``).
 
     Hit positions: cells holding a ray's footprint centre get the energy-weighted mean of
     those rays' hit points; covered cells between centres are linearly interpolated along
@@ -239,7 +254,7 @@ def form_echo(
         th = np.arccos(cn)
         sigma_over_cos[near] += spec_peak * np.exp(-0.5 * (th / spec_w) ** 2) / np.maximum(cn, 0.05)
     refl = geom_reflectivity[g]
-    if seabed is not None or object_specular is not None:
+    if seabed is not None or object_specular is not None or object_gain != 1.0:
         refl, sigma_over_cos = _realistic_sigma(
             hit,
             g,
@@ -253,6 +268,7 @@ def form_echo(
             geom_object_id,
             seabed,
             object_specular,
+            object_gain,
         )
     energy = gain * refl * sigma_over_cos
     energy *= np.exp((-0.2 * np.log(10.0) * alpha_db_m) * r) / (rs * rs)

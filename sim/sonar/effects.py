@@ -50,10 +50,14 @@ class RealismConfig:
     (dB re 1/m, None = off); sea_state (Knudsen ambient noise, plus Mellen thermal noise;
     None = off) reduced by the receive directivity index; surface_wind_mps: Chapman–Harris
     sea-surface backscatter (None = off); surface_multipath_loss_db: loss of the first
-    surface-bounce path of the seabed echo (None = off); receiver_gain_db; bit_depth
+    surface-bounce path of the seabed echo (None = off); upward_sidelobe_db: floor of the
+    one-way vertical pattern above horizontal (side-scan staves are baffled on top),
+    used by both surface terms; receiver_gain_db; bit_depth
     (amplitude bits, 0 = no quantisation/clipping) with full_scale_db the intensity after
     TVG and gain (dB re 1 µPa²) at which the ADC saturates.
-    Targets (item 4): facet_specular_db / facet_width_deg: per-facet specular glint of
+    Targets (item 4): object_mu_db: Lambert μ (dB) of a reflectivity-1 object, replacing
+    lambert_mu_db on object hits (steel plating is far stronger than sand; None = keep);
+    facet_specular_db / facet_width_deg: per-facet specular glint of
     objects (σ peak re 1 m²/m² and lobe width; None = off); corner_gain_db /
     corner_width_deg: double-bounce (dihedral: hull–seabed, deck–superstructure) returns
     traced with a second ray (None = off); fls_azimuth_sidelobe_db: first sidelobe of the
@@ -62,15 +66,15 @@ class RealismConfig:
 
     seabed_model: SeabedModel = "sediment"
     sediment_seed: int = 0
-    frac_mud: float = 0.15
+    frac_mud: float = 0.25
     frac_sand: float = 0.6
     frac_gravel: float = 0.15
-    frac_rock: float = 0.1
+    frac_rock: float = 0.0
     patch_scale_m: float = 12.0
-    texture_db: float = 1.5
+    texture_db: float = 1.0
     texture_scale_m: float = 0.8
     ripple_wavelength_m: float = 0.7
-    ripple_slope: float = 0.12
+    ripple_slope: float = 0.06
     ripple_direction_deg: float = 30.0
     k_clutter: bool = True
     clutter_cell_m: float = 0.06
@@ -82,12 +86,14 @@ class RealismConfig:
     sea_state: float | None = 2.0
     surface_wind_mps: float | None = 5.0
     surface_multipath_loss_db: float | None = 8.0
+    upward_sidelobe_db: float = -25.0
     receiver_gain_db: float = 0.0
     bit_depth: int = 16
     full_scale_db: float = 150.0
+    object_mu_db: float | None = -20.0
     facet_specular_db: float | None = 3.0
     facet_width_deg: float = 4.0
-    corner_gain_db: float | None = 6.0
+    corner_gain_db: float | None = -20.0
     corner_width_deg: float = 6.0
     fls_azimuth_sidelobe_db: float | None = -28.0
 
@@ -116,10 +122,12 @@ class RealismConfig:
         _opt("sea_state", self.sea_state, 0.0, 6.0)
         _opt("surface_wind_mps", self.surface_wind_mps, 0.5, 30.0)
         _opt("surface_multipath_loss_db", self.surface_multipath_loss_db, 0.0, 60.0)
+        _rng("upward_sidelobe_db", self.upward_sidelobe_db, -80.0, 0.0)
         _rng("receiver_gain_db", self.receiver_gain_db, -100.0, 100.0)
         if not isinstance(self.bit_depth, int) or not 0 <= self.bit_depth <= 24:
             raise ValueError(f"bit_depth = {self.bit_depth!r}; allowed: integer 0 .. 24")
         _rng("full_scale_db", self.full_scale_db, 0.0, 300.0)
+        _opt("object_mu_db", self.object_mu_db, -60.0, 0.0)
         _opt("facet_specular_db", self.facet_specular_db, -40.0, 30.0)
         _rng("facet_width_deg", self.facet_width_deg, 0.1, 45.0)
         _opt("corner_gain_db", self.corner_gain_db, -40.0, 40.0)
@@ -146,6 +154,7 @@ def all_off() -> RealismConfig:
         surface_wind_mps=None,
         surface_multipath_loss_db=None,
         bit_depth=0,
+        object_mu_db=None,
         facet_specular_db=None,
         corner_gain_db=None,
         fls_azimuth_sidelobe_db=None,

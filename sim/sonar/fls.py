@@ -174,6 +174,7 @@ class ForwardLookingSonar:
             self._neighbours,
             m.seabed,
             m.object_specular,
+            m.object_gain,
         )
         mean = self._realism(echo.mean, hits, p, dirs)
         r = np.broadcast_to(self.ranges[None, :], echo.mean.shape).reshape(-1)

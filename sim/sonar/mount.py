@@ -129,6 +129,11 @@ class SonarMount:
                 float(np.deg2rad(rz.facet_width_deg)),
             )
         )
+        self.object_gain = (
+            1.0
+            if rz is None or rz.object_mu_db is None
+            else 10.0 ** ((rz.object_mu_db - ac.lambert_mu_db) / 10.0)
+        )
         # rays slightly beyond max_range still spread part of their footprint inside it
         self.cutoff = 1.25 * config.max_range
 

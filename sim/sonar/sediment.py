@@ -16,8 +16,9 @@ high-frequency clutter: mud ~ Rayleigh (ν → ∞), sand weakly, gravel and roc
 non-Rayleigh.
 
 The field: a seeded periodic grid (``FIELD_CELL_M``) of smooth Gaussian noise per
-sediment; the sediment of a place is the soft arg-max of noise + log(area fraction)
-(patches with sediment boundaries), times a log-normal within-sediment texture and, for
+sediment; the sediment of a place is the soft arg-max of noise + an offset per sediment,
+the offsets fitted so the arg-max areas equal the requested fractions (patches with
+sediment boundaries), times a log-normal within-sediment texture and, for
 sand, sub-mesh ripples (a sinusoidal slope that tilts the local normal). K clutter: a
 world-fixed unit-mean gamma texture per small cell, so it persists across pings.
 """
@@ -92,8 +93,18 @@ def _fields(seed: int, fractions: tuple, patch_px: float, tex_px: float, tex_db:
     for f in fractions:
         g = gaussian_filter(rng.standard_normal(shape), patch_px, mode="wrap")
         g /= max(float(g.std()), 1e-12)
-        score.append(g + np.log(max(f, 1e-9)))
-    s = np.stack(score) / SOFTMAX_T
+        score.append(g if f > 0 else np.full(shape, -1e3))
+    g = np.stack(score)
+    # offsets c_k so that the arg-max areas equal the fractions over the (periodic) field
+    target = np.asarray(fractions, float)
+    c = np.zeros(len(fractions))
+    for _ in range(40):  # fixed-point iterations over four numbers (build time only)
+        share = np.bincount(np.argmax(g + c[:, None, None], axis=0).ravel(), minlength=c.size)
+        share = share / share.sum()
+        c += np.where(
+            target > 0, 0.7 * np.log(np.maximum(target, 1e-9) / np.maximum(share, 1e-6)), 0.0
+        )
+    s = (g + c[:, None, None]) / SOFTMAX_T
     s -= s.max(axis=0, keepdims=True)
     w = np.exp(s)
     w /= w.sum(axis=0, keepdims=True)

@@ -273,6 +273,7 @@ class SideScanSonar:
                 nbrs,
                 m.seabed,
                 m.object_specular,
+                m.object_gain,
             )
             mean, labels, pos = echo.mean, echo.labels, echo.hit_position
             mean = self._add_corners(mean, hits, p_port, dirs, gain, rows)
@@ -301,6 +302,7 @@ class SideScanSonar:
                         nbrs[: n_side - 1],
                         m.seabed,
                         m.object_specular,
+                        m.object_gain,
                     )
                 )
                 out[-1] = Echo(

@@ -180,7 +180,9 @@ def _shipwreck(size, rng: np.random.Generator) -> trimesh.Trimesh:
     for _ in range(4):  # debris alongside (plates, a drum)
         px = rng.uniform(-0.4, 0.4) * L
         py = rng.choice([-1, 1]) * rng.uniform(0.3, 0.45) * B
-        box([rng.uniform(0.4, 1.2), rng.uniform(0.3, 0.8), rng.uniform(0.05, 0.2)], [px, py, -draft])
+        box(
+            [rng.uniform(0.4, 1.2), rng.uniform(0.3, 0.8), rng.uniform(0.05, 0.2)], [px, py, -draft]
+        )
     m = trimesh.util.concatenate(parts)
     roll = np.deg2rad(rng.uniform(8, 25)) * rng.choice([-1, 1])
     pitch = np.deg2rad(rng.uniform(-3, 3))

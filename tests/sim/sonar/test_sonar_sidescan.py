@@ -16,6 +16,7 @@ from sim.sonar import (
     slant_to_ground,
 )
 from sim.sonar.acoustics import absorption_db_per_m
+from sim.sonar.effects import all_off
 from sim.sonar.scenes import SceneObject, build_scene
 
 QUIET = dict(
@@ -35,6 +36,10 @@ def _sonar(scene, backend="embree", site="sss", **over):
         scene.water,
         backend=backend,
     )
+
+
+# every realism effect switched off must leave the analytic checks below intact
+REALISM_OFF = pytest.mark.parametrize("realism", [None, all_off()], ids=["plain", "realism_off"])
 
 
 def _altitude(scene, site="sss"):
@@ -80,10 +85,11 @@ def test_flat_seabed_ground_range_matches_hits(flat_scene):
     assert np.max(err[far]) < 2 * son.bin_width
 
 
-def test_box_shadow_length_similar_triangles(box_scene):
+@REALISM_OFF
+def test_box_shadow_length_similar_triangles(box_scene, realism):
     """Similar triangles: a box of height H whose top far edge is at ground range g under a
     sensor at altitude h shadows the seabed from g to g·h/(h − H): length g·H/(h − H)."""
-    son = _sonar(box_scene)
+    son = _sonar(box_scene, acoustic=dict(realism=realism))
     ping = son.ping(box_scene.data, np.random.default_rng(0))
     h = _altitude(box_scene)
     H, g2 = 2.0, 15.0
@@ -103,11 +109,12 @@ def test_box_shadow_length_similar_triangles(box_scene):
     assert inten[obj].max() > np.median(inten[resume : resume + 100])  # ascending face bright
 
 
-def test_mean_intensity_follows_spreading_absorption_backscatter_law(flat_scene):
+@REALISM_OFF
+def test_mean_intensity_follows_spreading_absorption_backscatter_law(flat_scene, realism):
     """Closed form for a flat seabed (rect beams, Lambert): per range bin δr at slant r,
     ground range x, I = SL·μ·(h/r)²·(β r · r δr / x)·r⁻⁴·10^(−2αr/10); simulated within 1 dB."""
     over = dict(
-        acoustic=dict(QUIET),
+        acoustic=dict(QUIET, realism=realism),
         beam_pattern="rect",
         vertical_beamwidth_deg=179.0,
         depression_deg=45.0,
@@ -142,8 +149,8 @@ def test_mean_intensity_follows_spreading_absorption_backscatter_law(flat_scene)
     assert 20 * alpha * 60.0 / 10 > 1.0
 
 
-def _patch_amplitudes(scene, speckle, n_pings=60):
-    cfg_ac = dict(QUIET, speckle=speckle, k_shape=1.0)
+def _patch_amplitudes(scene, speckle, n_pings=60, realism=None):
+    cfg_ac = dict(QUIET, speckle=speckle, k_shape=1.0, realism=realism)
     son = _sonar(scene, acoustic=cfg_ac)
     rng = np.random.default_rng(7)
     inten = np.stack([son.ping(scene.data, rng).side("starboard") for _ in range(n_pings)])
@@ -151,10 +158,11 @@ def _patch_amplitudes(scene, speckle, n_pings=60):
     return np.sqrt(patch / patch.mean(axis=0, keepdims=True)).ravel()
 
 
-def test_speckle_amplitude_is_rayleigh(flat_scene):
+@REALISM_OFF
+def test_speckle_amplitude_is_rayleigh(flat_scene, realism):
     """Goodness of fit (KS, scipy.stats): amplitude normalised by its local RMS is Rayleigh
     with σ = 1/√2; the K-distributed option (shape 1) is clearly rejected by the same test."""
-    a = _patch_amplitudes(flat_scene, "rayleigh")
+    a = _patch_amplitudes(flat_scene, "rayleigh", realism=realism)
     p = stats.kstest(a, stats.rayleigh(scale=1 / np.sqrt(2)).cdf).pvalue
     assert p > 0.01
     k = _patch_amplitudes(flat_scene, "k")
