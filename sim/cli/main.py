@@ -44,6 +44,7 @@ COMMANDS: dict[str, str] = {
     "sweep": "sweep_cmd",
     "dataset": "dataset_cmd",
     "realism": "realism_cmd",
+    "calibrate": "calibrate_cmd",
 }
 
 

@@ -7,7 +7,7 @@ import argparse
 import json
 import sys
 
-from sim.cli.realism_io import load_any, parse_pings
+from sim.cli.realism_io import first_return_for, load_any, parse_pings
 from slam.realism.compare import compare, format_table, json_ready
 from slam.realism.statistics import waterfall_statistics
 
@@ -26,6 +26,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             choices=("intensity", "amplitude"),
             default=None,
             help=f"what the {what} file's values are (default: by type, see docs/realism.md)",
+        )
+        parser.add_argument(
+            f"--{name}-bottom",
+            choices=("detect", "altitude"),
+            default="detect",
+            help="first bottom return: detected (default) or from the recording's altitude",
         )
         parser.add_argument(
             f"--{name}-pings",
@@ -54,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
             sl = parse_pings(getattr(args, f"{name}_pings"), rec.n_pings)
             recs[name] = rec.pings(sl.start, sl.stop)
             try:
-                stats[name] = waterfall_statistics(recs[name].intensity)
+                bottom = first_return_for(recs[name], getattr(args, f"{name}_bottom"))
+                stats[name] = waterfall_statistics(recs[name].intensity, first_return=bottom)
             except ValueError as exc:
                 raise ValueError(f"{name.upper()} {getattr(args, name)}: {exc}") from exc
         comp = compare(stats["sim"], stats["real"])

@@ -10,11 +10,15 @@ column and the dynamic range are limited by the 40-dB display floor.
 
 from __future__ import annotations
 
+import contextlib
+import io
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from slam.realism.recordings import Recording, load_recording
+from slam.realism.statistics import first_return_from_altitude
 
 #: dB span of the display mapping of sim.viz.rerun_log.to_display_uint8 (its default).
 DISPLAY_DB = 40.0
@@ -67,12 +71,78 @@ def load_rrd_waterfall(path: str | Path, entity: str | None = None) -> Recording
     return Recording(intensity, f"{path}:{name}", "rrd")
 
 
+def load_humminbird(path: str | Path, scale: str | None = None) -> Recording:
+    """A Humminbird recording (``NAME.DAT`` beside ``NAME/B002.SON``, ``B003.SON``) through
+    ``pingverter`` (MIT): its per-ping tables give each ping's byte offset
+    (``index + son_offset``), sample count, sample size (``pixM``) and the unit's depth
+    under the transducer (``inst_dep_m``, taken as altitude). Every ping is cut to the
+    shortest ping's samples. Samples are uint8, near range first on
+    both sides, taken as amplitude unless ``scale`` says otherwise. A small private
+    reader for the realism tools; the project's reader of real recordings is in slam.io."""
+    import pandas as pd
+    import pingverter
+
+    path = Path(path)
+    son_dir = path.with_suffix("")
+    if not (son_dir / "B002.SON").is_file() or not (son_dir / "B003.SON").is_file():
+        raise ValueError(f"{path}: expected {son_dir}/B002.SON and B003.SON beside the .DAT")
+    with tempfile.TemporaryDirectory() as work:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            pingverter.hum2pingmapper(str(path), work)
+        tables = [
+            pd.read_csv(next(Path(work, "meta").glob(f"{b}_*meta.csv"))) for b in ("B002", "B003")
+        ]
+    n = min(len(t) for t in tables)
+    if n == 0:
+        raise ValueError(f"{path}: no side-scan pings")
+    # the range (and sample count) changes along the recording at a fixed sample size
+    # (pixM): keep the samples every ping has, so no ping is padded
+    width = int(min(t["ping_cnt"][:n].min() for t in tables))
+    sides = []
+    for beam, t in zip(("B002", "B003"), tables, strict=True):
+        raw = np.fromfile(son_dir / f"{beam}.SON", dtype=np.uint8)
+        start = (t["index"] + t["son_offset"]).to_numpy()[:n].astype(np.int64)
+        count = t["ping_cnt"].to_numpy()[:n].astype(np.int64)
+        k = np.arange(width)[None, :]
+        idx = start[:, None] + k
+        ok = (k < count[:, None]) & (idx < raw.size)
+        sides.append(np.where(ok, raw[np.minimum(idx, raw.size - 1)], 0).astype(np.float64))
+    values = np.concatenate([sides[0][:, ::-1], sides[1]], axis=1)
+    use = scale or "amplitude"
+    alt = tables[0]["inst_dep_m"].to_numpy()[:n].astype(np.float64)
+    srange = width * float(np.median(tables[0]["pixM"].to_numpy()[:n]))
+    intensity = values * values if use == "amplitude" else values
+    return Recording(intensity, str(path), "humminbird", alt if np.any(alt > 0) else None, srange)
+
+
 def load_any(path: str | Path, scale: str | None = None) -> Recording:
-    """A recording from any supported file, a ``.rrd`` or a run directory."""
+    """A recording from any supported file, a Humminbird ``.DAT``, a ``.rrd`` or a run
+    directory."""
     p = Path(path)
     if p.is_dir() or p.suffix.lower() == ".rrd":
         return load_rrd_waterfall(p)
+    if p.suffix.lower() == ".dat":
+        return load_humminbird(p, scale)
     return load_recording(p, scale)
+
+
+BOTTOM_MODES = ("detect", "altitude")
+
+
+def first_return_for(rec: Recording, mode: str) -> np.ndarray | None:
+    """The first bottom return to use for ``rec``: None = the detector; "altitude" = from
+    the recording's altitude and slant range (error naming what is missing)."""
+    if mode == "detect":
+        return None
+    if mode != "altitude":
+        raise ValueError(f"bottom mode must be one of {BOTTOM_MODES}, got {mode!r}")
+    if rec.altitude_m is None or not rec.slant_range_m:
+        raise ValueError(
+            f"{rec.source}: --bottom altitude needs the recording's altitude and range"
+        )
+    return first_return_from_altitude(
+        rec.altitude_m, rec.slant_range_m, rec.intensity.shape[1] // 2
+    )
 
 
 def parse_pings(spec: str | None, n: int) -> slice:

@@ -73,6 +73,7 @@ class SideStatistics:
     water_column_db: float  # median water-column intensity re seabed-profile peak, dB
     dynamic_range_db: float
     saturation: float
+    headroom_db: float  # 10·log10(clip level / P99 of the side's intensity), dB (>= 0)
     n_patches: int
     bottom_fraction: float
     hist_intensity: np.ndarray = field(repr=False)
@@ -86,6 +87,7 @@ class SideStatistics:
         "water_column_db",
         "dynamic_range_db",
         "saturation",
+        "headroom_db",
         "n_patches",
         "bottom_fraction",
     )
@@ -194,10 +196,16 @@ def _nanmedian(x: np.ndarray) -> float:
 
 
 def side_statistics(
-    side: np.ndarray, clip: float, cfg: RealismConfig, name: str = "side"
+    side: np.ndarray,
+    clip: float,
+    cfg: RealismConfig,
+    name: str = "side",
+    first_return: np.ndarray | None = None,
 ) -> SideStatistics:
     """Statistics of one side (P, S) of linear intensity, near range first.
 
+    ``first_return`` (P,) sample indices (nan = none) replaces the detector, e.g. from a
+    recording's altitude (``first_return_from_altitude``).
     Raises ValueError naming the side when it has too few pings/samples or no seabed.
     """
     side = np.nan_to_num(np.asarray(side, dtype=np.float64), nan=0.0)
@@ -207,7 +215,13 @@ def side_statistics(
             f"{name}: recording too short: {p} pings x {s} samples per side, need at least "
             f"{2 * cfg.patch} pings and {4 * cfg.patch} samples"
         )
-    track = first_bottom_return(side)
+    if first_return is None:
+        track = first_bottom_return(side)
+    else:
+        fr = np.asarray(first_return, dtype=np.float64)
+        if fr.shape != (p,):
+            raise ValueError(f"{name}: first_return must have shape ({p},), got {fr.shape}")
+        track = BottomTrack(first_return=np.floor(fr), blank_end=np.zeros(p))
     if track.found_fraction < cfg.min_bottom_fraction:
         raise ValueError(
             f"{name}: no seabed: a first bottom return was found on {track.found_fraction:.0%} "
@@ -227,6 +241,7 @@ def side_statistics(
     wc = water_column_mask(track, side.shape, cfg.guard)
     wc_db = 10.0 * np.log10(np.median(floored[wc]) / peak) if wc.any() else float("nan")
     lo, hi = np.percentile(floored, cfg.dr_percentiles)
+    hi_raw = max(float(np.percentile(side, cfg.dr_percentiles[1])), clip * 1e-30)
     return SideStatistics(
         cv_amplitude=float(np.median(patch_cv(amp))),
         db_std=float(np.median(np.std(10.0 * np.log10(patches), axis=(1, 2), ddof=1))),
@@ -235,6 +250,7 @@ def side_statistics(
         water_column_db=float(wc_db),
         dynamic_range_db=float(10.0 * np.log10(hi / lo)),
         saturation=float(np.mean(side >= clip)),
+        headroom_db=float(10.0 * np.log10(clip / min(hi_raw, clip))),
         n_patches=int(patches.shape[0]),
         bottom_fraction=track.found_fraction,
         hist_intensity=intensity_histogram(floored, seabed),
@@ -255,10 +271,25 @@ def clip_level(intensity: np.ndarray, full_scale: float | None) -> float:
     return m * (1.0 - 1e-6)
 
 
+def first_return_from_altitude(
+    altitude_m: np.ndarray, slant_range_m: float, samples_per_side: int
+) -> np.ndarray:
+    """(P,) first-return sample index of a flat seabed under the sonar: altitude over the
+    range per sample (nan where the altitude is not positive or beyond the range)."""
+    a = np.asarray(altitude_m, dtype=np.float64)
+    if not slant_range_m > 0:
+        raise ValueError(f"slant_range_m must be > 0, got {slant_range_m}")
+    idx = a / slant_range_m * samples_per_side
+    return np.where((a > 0) & (idx < samples_per_side), idx, np.nan)
+
+
 def waterfall_statistics(
-    intensity: np.ndarray, cfg: RealismConfig = RealismConfig()
+    intensity: np.ndarray,
+    cfg: RealismConfig = RealismConfig(),
+    first_return: np.ndarray | None = None,
 ) -> WaterfallStatistics:
-    """Statistics of both sides of a (P, 2S) linear-intensity waterfall."""
+    """Statistics of both sides of a (P, 2S) linear-intensity waterfall; ``first_return``
+    (P,) optionally gives the first bottom return (both sides) instead of the detector."""
     port, stbd = split_sides(intensity)
     if not np.isfinite(intensity).any():
         raise ValueError("waterfall holds no finite sample")
@@ -268,8 +299,8 @@ def waterfall_statistics(
         )
     clip = clip_level(intensity, cfg.full_scale)
     return WaterfallStatistics(
-        port=side_statistics(port, clip, cfg, "port"),
-        starboard=side_statistics(stbd, clip, cfg, "starboard"),
+        port=side_statistics(port, clip, cfg, "port", first_return),
+        starboard=side_statistics(stbd, clip, cfg, "starboard", first_return),
     )
 
 

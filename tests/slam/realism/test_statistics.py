@@ -11,7 +11,11 @@ from scipy.signal import lfilter
 from scipy.special import hyp2f1
 
 from slam.realism.kdist import k_amplitude_cv, sample_k_intensity
-from slam.realism.statistics import RealismConfig, waterfall_statistics
+from slam.realism.statistics import (
+    RealismConfig,
+    first_return_from_altitude,
+    waterfall_statistics,
+)
 
 from .conftest import WC_MEAN, WC_SAMPLES, make_waterfall
 
@@ -140,3 +144,24 @@ def test_too_short_and_no_seabed_and_negative_input_raise(rng, waterfall_factory
         waterfall_statistics(w)
     with pytest.raises(ValueError, match="dr_percentiles"):
         RealismConfig(dr_percentiles=(99.0, 1.0))
+
+
+def test_first_return_from_altitude_replaces_the_detector(rng):
+    """A water column as bright as the seabed defeats the detector ("no seabed"); the
+    altitude gives the split and the seabed is Rayleigh again. Index = altitude / range
+    per sample."""
+    p, s, wc = 96, 256, 40
+    side = rng.exponential(1.0, (p, s))
+    side[:, :wc] = 0.8 * rng.exponential(1.0, (p, wc)) + 0.2  # bright, not speckle
+    w = np.concatenate([side[:, ::-1], rng.exponential(1.0, (p, s))], axis=1)
+    w[:, s : s + wc] = side[:, :wc]
+    with pytest.raises(ValueError, match="no seabed"):
+        waterfall_statistics(w)
+    fr = first_return_from_altitude(np.full(p, 6.0), 38.4, s)  # 6 m / 0.15 m per sample
+    assert fr[0] == pytest.approx(wc)
+    st = waterfall_statistics(w, first_return=fr)
+    assert st.port.cv_amplitude == pytest.approx(RAYLEIGH_CV, rel=0.03)
+    assert first_return_from_altitude(np.array([-1.0, 50.0]), 38.4, s).tolist() == [
+        pytest.approx(np.nan, nan_ok=True),
+        pytest.approx(np.nan, nan_ok=True),
+    ]

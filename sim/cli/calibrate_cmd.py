@@ -1,0 +1,237 @@
+"""``undersea calibrate REAL --preset deepeye680d --out my_sonar.toml``: fit the sonar's
+realism levels so that a simulated survey at the recording's altitude and range matches
+the recording's statistics (docs/realism.md), and write them as a preset file.
+
+Fit on ``--pings`` (default the first half), report on ``--report-pings`` (default the
+second half). The TOML is written only after a converged fit (temporary file + rename).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from sim.cli.realism_io import first_return_for, load_any, parse_pings
+from slam.realism.bottom import first_bottom_return
+from slam.realism.calibration import CalibrationError, Parameter, calibrate
+from slam.realism.compare import compare, format_table, json_ready
+from slam.realism.statistics import RealismConfig, split_sides, waterfall_statistics
+from slam.realism.synthetic import FULL_SCALE, PARAMETERS, StatisticalSideScan
+
+HELP = "fit a side-scan preset's realism levels to a real recording; write a preset TOML"
+
+#: the ray-cast model's free parameters (sim.sonar.effects.RealismConfig fields).
+RAYCAST_PARAMETERS = (
+    Parameter("receiver_gain_db", -30.0, 20.0, 0.0),  # gain → saturation, headroom
+    Parameter("texture_db", 0.0, 6.0, 1.5),  # sediment texture → speckle CV, dB std
+    Parameter("range_cell_m", 0.005, 0.2, 0.02, log=True),  # speckle correlation in range
+    Parameter("volume_sv_db", -120.0, -40.0, -80.0),  # reverberation → water column level
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("real", help="real recording: .xtf, .npy/.npz or image waterfall")
+    parser.add_argument("--preset", default="deepeye680d_realistic", help="side-scan preset")
+    parser.add_argument("--out", required=True, help="preset TOML to write")
+    parser.add_argument(
+        "--model",
+        choices=("raycast", "statistical"),
+        default="raycast",
+        help="raycast: the simulator's sonar over a flat seabed (default); statistical: "
+        "the fast statistical waterfall (slam.realism.synthetic; its values are not "
+        "simulator fields)",
+    )
+    parser.add_argument("--scale", choices=("intensity", "amplitude"), default=None)
+    parser.add_argument(
+        "--bottom",
+        choices=("detect", "altitude"),
+        default="detect",
+        help="REAL's first bottom return: detected (default) or from its altitude",
+    )
+    parser.add_argument("--pings", default="first", help="pings to fit (A:B, first, second, all)")
+    parser.add_argument("--report-pings", default="second", help="pings to report on too")
+    parser.add_argument("--altitude", type=float, default=None, help="m (default: recording)")
+    parser.add_argument("--max-range", type=float, default=None, help="m (default: recording)")
+    parser.add_argument("--sim-pings", type=int, default=32, help="pings per simulated run")
+    parser.add_argument("--max-evaluations", type=int, default=60, help="model runs at most")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--save-sim",
+        default=None,
+        help="also write the calibrated model's waterfall (.npy, linear intensity) for "
+        "`undersea realism SIM REAL --plot`",
+    )
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def survey_geometry(rec, altitude: float | None, max_range: float | None) -> tuple[float, float]:
+    """(altitude m, max slant range m) from the flags, else from the recording (nav
+    altitude median; else the median first bottom return × range per sample)."""
+    rng_m = max_range or rec.slant_range_m
+    if not rng_m or not math.isfinite(rng_m) or rng_m <= 0:
+        raise ValueError(f"{rec.source}: slant range unknown: give --max-range (m)")
+    if altitude is None and rec.altitude_m is not None:
+        a = rec.altitude_m[rec.altitude_m > 0]
+        altitude = float(np.median(a)) if a.size else None
+    if altitude is None:
+        s = rec.intensity.shape[1] // 2
+        first = [first_bottom_return(side).first_return for side in split_sides(rec.intensity)]
+        altitude = float(np.nanmedian(np.concatenate(first))) * rng_m / s
+    if not 0 < altitude < rng_m:
+        raise ValueError(f"altitude {altitude:.2f} m is not inside the range (0, {rng_m:g}) m")
+    return float(altitude), float(rng_m)
+
+
+def _model(args, altitude: float, max_range: float, samples: int):
+    """(simulate callable, parameters, statistics config of the model's images)."""
+    if args.model == "statistical":
+        model = StatisticalSideScan(
+            pings=max(args.sim_pings, 32),
+            samples_per_side=samples,
+            water_column_fraction=min(max(altitude / max_range, 0.05), 0.8),
+            seed=args.seed,
+        )
+        return model, PARAMETERS, RealismConfig(full_scale=FULL_SCALE)
+    from sim.realism.survey import RaycastSurvey, SurveySpec  # mujoco only for this model
+
+    survey = RaycastSurvey(
+        SurveySpec(
+            altitude, max_range, samples, pings=args.sim_pings, preset=args.preset, seed=args.seed
+        )
+    )
+    return survey, RAYCAST_PARAMETERS, RealismConfig(full_scale=survey.full_scale({}))
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else '"nan"'
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    return json.dumps(str(v))
+
+
+def preset_toml(args, values, result, meta) -> str:
+    """The preset file: [sonar] preset + overrides (scenario-ready), [calibration] record."""
+    lines = [
+        f"# Sonar preset calibrated by `undersea calibrate` to {meta['recording']}.",
+        "# In a scenario: [[vehicles.sonars]] preset = <sonar.preset>, overrides = <sonar.overrides>",
+    ]
+    if args.model == "statistical":
+        lines += [
+            "# model = statistical: these values are NOT simulator fields",
+            "[statistical_model]",
+        ]
+    else:
+        lines += ["[sonar]", f"preset = {_toml_value(args.preset)}", "", "[sonar.overrides]"]
+    lines += [f"{k} = {_toml_value(float(v))}" for k, v in values.items()]
+    lines += ["", "[calibration]"]
+    lines += [f"{k} = {_toml_value(v)}" for k, v in meta.items()]
+    for when, st in (("before", result.before), ("after", result.after)):
+        for side, s in st.sides().items():
+            lines += ["", f"[calibration.{when}.{side}]"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in s.scalars().items()]
+    return "\n".join(lines) + "\n"
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder + rename."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    try:
+        rec = load_any(args.real, args.scale)
+        fit_sl = parse_pings(args.pings, rec.n_pings)
+        rep_sl = parse_pings(args.report_pings, rec.n_pings)
+        fit_rec = rec.pings(fit_sl.start, fit_sl.stop)
+        rep_rec = rec.pings(rep_sl.start, rep_sl.stop)
+        try:
+            target = waterfall_statistics(
+                fit_rec.intensity, first_return=first_return_for(fit_rec, args.bottom)
+            )
+            report = waterfall_statistics(
+                rep_rec.intensity, first_return=first_return_for(rep_rec, args.bottom)
+            )
+        except ValueError as exc:
+            raise ValueError(f"REAL {args.real}: {exc}") from exc
+        altitude, max_range = survey_geometry(fit_rec, args.altitude, args.max_range)
+        simulate, params, model_cfg = _model(args, altitude, max_range, rec.intensity.shape[1] // 2)
+        result = calibrate(
+            simulate,
+            target,
+            params,
+            max_evaluations=args.max_evaluations,
+            model_config=model_cfg,
+        )
+    except (ValueError, CalibrationError) as exc:
+        best = getattr(exc, "best", None)
+        if best is not None:  # show where the fit got to, on stderr
+            vals = ", ".join(f"{k} = {v:.4g}" for k, v in best.values.items())
+            print(f"best found: {vals}", file=sys.stderr)
+            print(format_table(compare(best.after, target)), file=sys.stderr)
+        print(f"undersea calibrate: {exc}; nothing written", file=sys.stderr)
+        return 2
+    meta = {
+        "recording": str(args.real),
+        "fit_pings": [fit_sl.start, fit_sl.stop],
+        "report_pings": [rep_sl.start, rep_sl.stop],
+        "model": args.model,
+        "altitude_m": altitude,
+        "max_range_m": max_range,
+        "samples_per_side": rec.intensity.shape[1] // 2,
+        "sim_pings": args.sim_pings,
+        "seed": args.seed,
+        "evaluations": result.evaluations,
+        "loss_before": result.initial_loss,
+        "loss_after": result.loss,
+    }
+    write_atomic(out, preset_toml(args, result.values, result, meta))
+    if args.save_sim:
+        np.save(args.save_sim, np.asarray(simulate(result.values), dtype=np.float32))
+    before, after = compare(result.before, target), compare(result.after, target)
+    held_out = compare(result.after, report)
+    if args.json:
+        doc = {
+            "values": result.values,
+            "initial_values": result.initial_values,
+            "calibration": meta,
+            "before": before.to_dict(),
+            "after": after.to_dict(),
+            "report_pings": held_out.to_dict(),
+            "out": str(out),
+        }
+        print(json.dumps(json_ready(doc), allow_nan=False, indent=1))
+        return 0
+    print(
+        f"REAL {args.real}: fit on pings {fit_sl.start}:{fit_sl.stop}, model {args.model}, "
+        f"altitude {altitude:.2f} m, range {max_range:.2f} m, {result.evaluations} runs"
+    )
+    print("fitted: " + ", ".join(f"{k} = {v:.4g}" for k, v in result.values.items()))
+    for title, c in (
+        ("BEFORE (preset values) vs REAL fit pings", before),
+        ("AFTER (calibrated) vs REAL fit pings", after),
+        (f"AFTER vs REAL report pings {rep_sl.start}:{rep_sl.stop}", held_out),
+    ):
+        print(f"\n== {title}\n" + format_table(c))
+    print(f"\nwrote {out}")
+    return 0

@@ -1,0 +1,267 @@
+"""Fit a sonar model's free parameters so that its waterfall matches a recording's
+realism statistics.
+
+The model is a callable ``simulate(values: dict[str, float]) -> (P, 2S) intensity`` (a
+ray-cast survey, or the statistical model of :mod:`slam.realism.synthetic`); the fit
+knows nothing else about it. The parameters are a small vector of named, bounded scalars
+(:class:`Parameter`), fitted by bounded nonlinear least squares on the residual vector
+(``scipy.optimize.least_squares``, trust-region reflective, finite-difference Jacobian
+with steps of ``diff_step`` of each range) in coordinates scaled to [0, 1] (log-scaled
+when ``log``). The simulator should be seeded the same way at every call (common random
+numbers), so the objective is deterministic.
+
+Objective: the mean over the features below, on each side, of the squared residual *in
+units of the issue-11 tolerance* (1 = at the edge of the tolerance): speckle CV (relative), dB std, lag-1 range, lag-1 pings, water-column level,
+dynamic range, log10(saturation + SATURATION_FLOOR) (factor 2 ↔ log10 2; the floor keeps
+the residual smooth where a model barely clips), the texture (LBP) JS
+distance to the recording's histogram over 0.1, and — only to guide the gain where a model
+does not clip yet — the headroom (clip level re P99, dB) in 1-dB units. A model call that fails (``ValueError``: no seabed
+in the simulated image, …) costs ``FAILED_LOSS``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares, minimize
+from scipy.spatial.distance import jensenshannon
+
+from slam.realism.compare import SATURATION_FLOOR, TEXTURE_JS_MAX, TOLERANCES
+from slam.realism.statistics import RealismConfig, WaterfallStatistics, waterfall_statistics
+
+FAILED_LOSS = 1e4
+FEATURES = (
+    "cv_amplitude",
+    "db_std",
+    "lag1_range",
+    "lag1_ping",
+    "water_column_db",
+    "dynamic_range_db",
+    "saturation",
+    "texture_js",
+    "headroom_db",
+)
+#: features that must be within tolerance for convergence (the issue-11 table); the
+#: headroom (clip re P99, 1-dB units) only guides the gain where nothing clips yet.
+CONVERGENCE_FEATURES = FEATURES[:-1]
+HEADROOM_TOLERANCE_DB = 1.0
+SIDES = ("port", "starboard")
+#: residual keys: every convergence feature on both sides, then the guides.
+RESIDUAL_KEYS = tuple(f"{k}.{s}" for k in CONVERGENCE_FEATURES for s in SIDES) + tuple(
+    f"headroom_db.{s}" for s in SIDES
+)
+
+
+class CalibrationError(ValueError):
+    """The fit did not converge (the message says which statistics are off and why);
+    ``best`` holds the best result found (None when the model gave no image)."""
+
+    def __init__(self, message: str, best: CalibrationResult | None = None):
+        super().__init__(message)
+        self.best = best
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A free parameter: name (the model's key), bounds and start value, log-scaled search
+    when ``log`` (then lo > 0)."""
+
+    name: str
+    lo: float
+    hi: float
+    initial: float
+    log: bool = False
+
+    def __post_init__(self) -> None:
+        if not (self.lo < self.hi and self.lo <= self.initial <= self.hi):
+            raise ValueError(
+                f"parameter {self.name}: need lo < hi and lo <= initial <= hi, got "
+                f"{self.lo}, {self.hi}, {self.initial}"
+            )
+        if self.log and self.lo <= 0:
+            raise ValueError(f"parameter {self.name}: log scale needs lo > 0, got {self.lo}")
+
+    def to_unit(self, v: float) -> float:
+        if self.log:
+            return math.log(v / self.lo) / math.log(self.hi / self.lo)
+        return (v - self.lo) / (self.hi - self.lo)
+
+    def from_unit(self, u: float) -> float:
+        u = min(max(u, 0.0), 1.0)
+        if self.log:
+            return self.lo * (self.hi / self.lo) ** u
+        return self.lo + u * (self.hi - self.lo)
+
+
+def _one(key: str, s: float, r: float) -> float:
+    _, kind, tol = TOLERANCES[key]
+    if kind == "rel":
+        return (s - r) / (tol * abs(r))
+    if kind == "abs":
+        return (s - r) / tol
+    ls, lr = (math.log10(x + SATURATION_FLOOR) for x in (s, r))
+    return (ls - lr) / math.log10(tol)
+
+
+def residuals(sim: WaterfallStatistics, real: WaterfallStatistics) -> dict[str, float]:
+    """Residual per feature and side (key ``"<feature>.<side>"``) in tolerance units,
+    signed; nan when a statistic is missing."""
+    out = {}
+    for side in SIDES:
+        a, b = sim.sides()[side], real.sides()[side]
+        for key in FEATURES[:-2]:
+            out[f"{key}.{side}"] = _one(key, float(getattr(a, key)), float(getattr(b, key)))
+        js = jensenshannon(b.hist_lbp, a.hist_lbp, base=2)
+        out[f"texture_js.{side}"] = float(js) / TEXTURE_JS_MAX
+        out[f"headroom_db.{side}"] = (a.headroom_db - b.headroom_db) / HEADROOM_TOLERANCE_DB
+    return out
+
+
+def residual_vector(res: dict[str, float]) -> np.ndarray:
+    """Residuals, convergence features first (RESIDUAL_KEYS order); a missing statistic
+    (nan) counts as 10 tolerances."""
+    v = np.array([res[k] for k in RESIDUAL_KEYS], dtype=np.float64)
+    return np.where(np.isfinite(v), v, 10.0)
+
+
+def loss(res: dict[str, float]) -> float:
+    """Mean squared residual (``residual_vector``)."""
+    return float(np.mean(residual_vector(res) ** 2))
+
+
+def _worst(rv: np.ndarray) -> float:
+    """Largest |residual| over the convergence features."""
+    return float(np.abs(rv[: 2 * len(CONVERGENCE_FEATURES)]).max())
+
+
+def _simplex(u: np.ndarray, step: float = 0.15) -> np.ndarray:
+    """Initial Nelder–Mead simplex around ``u`` (steps towards the middle of [0, 1])."""
+    pts = [u]
+    for i in range(len(u)):
+        d = np.zeros_like(u)
+        d[i] = step if u[i] < 0.5 else -step
+        pts.append(u + d)
+    return np.clip(np.array(pts), 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """Fitted values, losses (initial and final), residuals after the fit, the number of
+    model calls, and the statistics of the model before (initial values) and after."""
+
+    values: dict[str, float]
+    initial_values: dict[str, float]
+    loss: float
+    initial_loss: float
+    residuals: dict[str, float]
+    evaluations: int
+    before: WaterfallStatistics
+    after: WaterfallStatistics
+
+
+def calibrate(
+    simulate: Callable[[dict[str, float]], np.ndarray],
+    target: WaterfallStatistics,
+    parameters: Sequence[Parameter],
+    *,
+    max_evaluations: int = 200,
+    max_residual: float = 1.0,
+    diff_step: float = 0.03,
+    model_config: RealismConfig | None = None,
+) -> CalibrationResult:
+    """Fit ``parameters`` of ``simulate`` to the ``target`` statistics.
+
+    ``model_config`` is how the model's images are measured: give it the model's
+    ``full_scale`` (its clip level), so that the saturation and headroom follow the gain
+    even where the model does not clip.
+
+    Converged means every feature within ``max_residual`` tolerances (issue 11: every row
+    of the table within its tolerance). Raises CalibrationError when the model fails at
+    the start values or the fit does not converge (naming the statistics that are off).
+    """
+    model_config = model_config or RealismConfig()
+    if not parameters:
+        raise ValueError("calibrate needs at least one parameter")
+    names = [p.name for p in parameters]
+    if len(set(names)) != len(names):
+        raise ValueError(f"parameter names must be unique, got {names}")
+    cache: dict[tuple, tuple[np.ndarray, WaterfallStatistics | None, dict]] = {}
+    failed = np.full(len(RESIDUAL_KEYS), math.sqrt(FAILED_LOSS))
+
+    def values_of(u: np.ndarray) -> dict[str, float]:
+        return {p.name: p.from_unit(float(x)) for p, x in zip(parameters, u, strict=True)}
+
+    def evaluate(u: np.ndarray):
+        key = tuple(np.round(np.clip(u, 0, 1), 12))
+        if key not in cache:
+            try:
+                st = waterfall_statistics(simulate(values_of(np.asarray(key))), model_config)
+            except ValueError:
+                cache[key] = (failed, None, {})
+            else:
+                res = residuals(st, target)
+                cache[key] = (residual_vector(res), st, res)
+        return cache[key]
+
+    u0 = np.array([p.to_unit(p.initial) for p in parameters])
+    r0, st0, _ = evaluate(u0)
+    if st0 is None:
+        raise CalibrationError(
+            f"the model gives no usable image at the start values {values_of(u0)} "
+            "(no seabed or too short): check the preset, altitude and range"
+        )
+    opt = least_squares(
+        lambda u: evaluate(u)[0],
+        u0,
+        bounds=(0.0, 1.0),
+        diff_step=diff_step,
+        max_nfev=max_evaluations,
+        xtol=1e-3,
+        ftol=1e-4,
+    )
+    u = opt.x
+    left = max_evaluations - len(cache)
+    if _worst(evaluate(u)[0]) > max_residual and left > len(u) + 1:
+        # least squares stalls where a feature is flat (no clipping at all): polish by
+        # Nelder–Mead from the better of the start and the least-squares point
+        start = min((u0, u), key=lambda x: float(np.mean(evaluate(x)[0] ** 2)))
+        nm = minimize(
+            lambda x: float(np.mean(evaluate(x)[0] ** 2)),
+            start,
+            method="Nelder-Mead",
+            bounds=[(0.0, 1.0)] * len(u),
+            options={
+                "maxfev": left,
+                "xatol": 2e-3,
+                "fatol": 1e-3,
+                "initial_simplex": _simplex(start),
+            },
+        )
+        u = min((u, nm.x), key=lambda x: float(np.mean(evaluate(x)[0] ** 2)))
+    rv, st, res = evaluate(u)
+    result = None
+    if st is not None:
+        result = CalibrationResult(
+            values=values_of(u),
+            initial_values=values_of(u0),
+            loss=float(np.mean(rv**2)),
+            initial_loss=float(np.mean(r0**2)),
+            residuals=res,
+            evaluations=len(cache),
+            before=st0,
+            after=st,
+        )
+    if result is None or not _worst(rv) <= max_residual:
+        conv = {k: v for k, v in res.items() if k.split(".")[0] in CONVERGENCE_FEATURES}
+        off = sorted(conv.items(), key=lambda kv: -abs(kv[1]))[:3]
+        worst = ", ".join(f"{k} {v:+.1f} tolerances" for k, v in off)
+        raise CalibrationError(
+            f"calibration did not converge: a statistic is {_worst(rv):.2g} tolerances "
+            f"off (allowed {max_residual:g}; loss {float(np.mean(rv**2)):.3g}) after "
+            f"{len(cache)} model runs; furthest off: {worst or 'no image'}",
+            result,
+        )
+    return result

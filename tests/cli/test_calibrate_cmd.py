@@ -1,0 +1,97 @@
+"""``undersea calibrate``: a converged fit writes a readable preset; failures write nothing
+and exit 2 with the reason."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+
+import numpy as np
+import pytest
+
+from sim.cli.main import main
+from slam.realism.synthetic import StatisticalSideScan
+
+TRUTH = dict(
+    gain_db=-10.0, texture_db=2.0, corr_range=0.5, corr_ping=0.3, water_column_db=-40.0, looks=2.0
+)
+
+
+def _recording(path, image, altitude=6.0, slant=30.0):
+    p = image.shape[0]
+    np.savez(path, intensity=image, altitude_m=np.full(p, altitude), slant_range_m=slant)
+    return path
+
+
+def test_statistical_fit_writes_a_preset_with_before_and_after(tmp_path, capsys):
+    """A recording drawn from the statistical model itself (other seed): the fit converges,
+    the TOML parses and records the geometry read from the file."""
+    img = StatisticalSideScan(pings=96, samples_per_side=320, seed=7)(TRUTH)
+    rec = _recording(tmp_path / "rec.npz", img)
+    out = tmp_path / "my_sonar.toml"
+    sim = tmp_path / "sim.npy"
+    args = ["calibrate", str(rec), "--model", "statistical", "--out", str(out), "--json"]
+    args += ["--save-sim", str(sim)]
+    assert main([*args, "--pings", "all", "--report-pings", "all", "--sim-pings", "96"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["after"]["all_within"] is True
+    t = tomllib.loads(out.read_text())
+    assert t["calibration"]["altitude_m"] == pytest.approx(6.0)
+    assert t["calibration"]["max_range_m"] == pytest.approx(30.0)
+    assert t["calibration"]["loss_after"] < t["calibration"]["loss_before"]
+    assert t["statistical_model"]["texture_db"] == pytest.approx(TRUTH["texture_db"], abs=0.6)
+    assert set(t["calibration"]["after"]) == {"port", "starboard"}
+    assert np.load(sim).shape == (96, 640)
+
+
+def test_unreachable_recording_exits_2_and_writes_nothing(tmp_path, capsys, rng):
+    """Heavy K clutter (amplitude CV ≈ 1) is beyond the model's texture range."""
+    img = StatisticalSideScan(pings=96, samples_per_side=320, seed=7)(TRUTH | {"texture_db": 0.0})
+    seabed = img > 10 ** (-4)
+    img[seabed] *= rng.gamma(0.3, 1 / 0.3, seabed.sum())
+    out = tmp_path / "x.toml"
+    rec = _recording(tmp_path / "k.npz", img)
+    code = main(
+        [
+            "calibrate",
+            str(rec),
+            "--model",
+            "statistical",
+            "--out",
+            str(out),
+            "--pings",
+            "all",
+            "--max-evaluations",
+            "15",
+        ]
+    )
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "did not converge" in err and "nothing written" in err
+    assert not out.exists() and not list(tmp_path.glob("*.tmp"))
+
+
+@pytest.mark.parametrize(
+    "image, message",
+    [
+        (lambda r: r.exponential(1.0, (96, 640)), "no seabed"),
+        (lambda r: r.exponential(1.0, (12, 640)), "too short"),
+    ],
+)
+def test_bad_recording_exits_2(tmp_path, capsys, rng, image, message):
+    out = tmp_path / "x.toml"
+    rec = _recording(tmp_path / "bad.npz", image(rng))
+    assert main(["calibrate", str(rec), "--model", "statistical", "--out", str(out)]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_missing_range_is_named(tmp_path, capsys):
+    img = StatisticalSideScan(pings=64, samples_per_side=256, seed=7)(TRUTH)
+    np.save(tmp_path / "r.npy", img)
+    out = tmp_path / "x.toml"
+    assert (
+        main(["calibrate", str(tmp_path / "r.npy"), "--model", "statistical", "--out", str(out)])
+        == 2
+    )
+    assert "--max-range" in capsys.readouterr().err

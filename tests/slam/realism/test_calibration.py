@@ -1,0 +1,75 @@
+"""Calibration recovers the known parameters of the statistical model, and says when it
+cannot."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from slam.realism.calibration import CalibrationError, Parameter, calibrate
+from slam.realism.statistics import RealismConfig, waterfall_statistics
+from slam.realism.synthetic import FULL_SCALE, PARAMETERS, StatisticalSideScan
+
+SIZE = dict(pings=96, samples_per_side=320)
+MODEL_STATS = RealismConfig(full_scale=FULL_SCALE)
+
+
+def test_fit_recovers_the_true_parameters_from_another_realization():
+    """Target drawn with seed 1 at known values; the model (seed 0, other speckle and
+    texture draws) starts elsewhere and must land near the truth. The bounds follow from
+    the fit's own stopping rule (every statistic within its issue-11 tolerance): e.g.
+    lag-1 ±0.1 is about ±0.1 on the AR(1) coefficient near 0.5 (amplitude correlation
+    ≈ 0.92·phi²), plus the difference between the two realizations."""
+    truth = dict(
+        gain_db=-9.0,
+        texture_db=2.5,
+        corr_range=0.55,
+        corr_ping=0.5,
+        water_column_db=-40.0,
+        looks=2.5,
+    )
+    target = waterfall_statistics(StatisticalSideScan(seed=1, **SIZE)(truth))
+    r = calibrate(StatisticalSideScan(seed=0, **SIZE), target, PARAMETERS, model_config=MODEL_STATS)
+    tol = dict(
+        gain_db=1.0, texture_db=0.5, corr_range=0.12, corr_ping=0.12, water_column_db=2.0, looks=0.5
+    )
+    for k, t in tol.items():
+        assert r.values[k] == pytest.approx(truth[k], abs=t), k
+    assert r.loss < 0.1 * r.initial_loss
+    assert all(abs(v) <= 1.0 for k, v in r.residuals.items() if not k.startswith("headroom"))
+
+
+def test_unreachable_target_raises_did_not_converge():
+    """Heavy K clutter (CV far above Rayleigh) while the model's texture is capped at
+    0.5 dB: the CV cannot be met, the error names it."""
+    rng = np.random.default_rng(3)
+    model = StatisticalSideScan(seed=0, **SIZE)
+    target_img = model({"texture_db": 0.0})
+    seabed = target_img > 10 ** (-3.5)  # everything but the water column
+    target_img[seabed] *= rng.gamma(0.5, 2.0, seabed.sum())
+    target = waterfall_statistics(target_img)
+    capped = [Parameter("texture_db", 0.0, 0.5, 0.2), Parameter("gain_db", -30.0, 0.0, -12.0)]
+    with pytest.raises(CalibrationError, match=r"did not converge.*cv_amplitude"):
+        calibrate(model, target, capped, max_evaluations=20, model_config=MODEL_STATS)
+
+
+def test_model_without_image_at_the_start_raises():
+    target = waterfall_statistics(StatisticalSideScan(seed=1, **SIZE)({}))
+
+    def broken(values):
+        return np.ones((8, 64))  # too short
+
+    with pytest.raises(CalibrationError, match="no usable image"):
+        calibrate(broken, target, PARAMETERS[:1])
+
+
+def test_parameter_validation_and_unit_mapping():
+    with pytest.raises(ValueError, match="lo < hi"):
+        Parameter("x", 1.0, 0.0, 0.5)
+    with pytest.raises(ValueError, match="log scale"):
+        Parameter("x", 0.0, 1.0, 0.5, log=True)
+    p = Parameter("cell", 0.01, 1.0, 0.1, log=True)
+    assert p.to_unit(0.1) == pytest.approx(0.5)
+    assert p.from_unit(p.to_unit(0.37)) == pytest.approx(0.37)
+    with pytest.raises(ValueError, match="unique"):
+        calibrate(StatisticalSideScan(**SIZE), None, [PARAMETERS[0], PARAMETERS[0]])
