@@ -17,7 +17,7 @@ import argparse
 import mujoco
 import numpy as np
 
-from sim.runner.core import world_spec_from_scenario
+from sim.runner.build import world_spec_from_scenario
 from sim.scenario.schema import load_scenario
 from sim.sonar import SideScanSonar, preset
 from sim.world import build_world

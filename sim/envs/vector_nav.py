@@ -50,8 +50,8 @@ from sim.envs.base import VEHICLE_CHOICES, NavEstimate
 from sim.envs.waypoint_nav import sample_waypoints, waypoint_observation
 from sim.frames import wxyz_from_euler
 from sim.navigation import IMUConfig, NavSuite, NavSuiteConfig
-from sim.runner.lagged import apply_increment
 from sim.world import SeabedSpec, VehicleSpec, WorldSpec, build_world
+from slam.pipeline.lagged import apply_increment
 
 _DOWN = np.array([0.0, 0.0, -1.0])
 _RAY_GROUPS = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)

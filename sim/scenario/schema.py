@@ -201,7 +201,7 @@ class FrontendSpec:
 class SlamSpec:
     """estimator: name for slam.estimators.make_estimator; params passed through.
     timing: 'lagged' feeds each delayed side-scan observation to SLAM at the pose of its
-    ping (the filter runs one window behind, see sim.runner.lagged); 'naive' applies it
+    ping (the filter runs one window behind, see slam.pipeline.lagged); 'naive' applies it
     at detection time as if seen from the current pose (for comparison)."""
 
     estimator: str = "aekf"

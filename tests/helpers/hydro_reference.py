@@ -245,3 +245,21 @@ def reference_step(world, ref: ReferenceHydroBatch, n: int) -> None:
             world.thrusters,
         )
         mujoco.mj_step2(m, d)
+
+
+def random_hydro_params(rng, n: int) -> list[HydroParams]:
+    """``n`` random but physical vehicles (masses 5-200 kg, volumes 5-200 l, ...), the
+    draws shared by the hydrodynamics property tests (same draws, same order)."""
+    return [
+        HydroParams(
+            mass=rng.uniform(5, 200),
+            inertia=rng.uniform(0.1, 50, 3),
+            volume=rng.uniform(0.005, 0.2),
+            r_cb=rng.normal(0, 0.03, 3),
+            added_mass=rng.uniform(0, 100, 6),
+            linear_damping=rng.uniform(0, 50, 6),
+            quadratic_damping=rng.uniform(0, 50, 6),
+            height=rng.uniform(0.2, 1.0),
+        )
+        for _ in range(n)
+    ]

@@ -6,34 +6,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hydro_reference import ReferenceHydroBatch, reference_step
+from hydro_reference import ReferenceHydroBatch, random_hydro_params, reference_step
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim.frames import matrix_from_wxyz
-from sim.hydrodynamics import HydroBatch, HydroParams
+from sim.hydrodynamics import HydroBatch
 from sim.thrusters import ThrusterBank, ThrusterSpec
 from sim.world import SeabedSpec, VehicleSpec, WorldSpec, build_world
 from sim.world.currents import CurrentSpec
 
 RHO = 1025.0
 SEABED = SeabedSpec(kind="ripples", size_xy=(120.0, 120.0), resolution=1.0, depth=30.0, seed=3)
-
-
-def _random_params(rng, n):
-    return [
-        HydroParams(
-            mass=rng.uniform(5, 200),
-            inertia=rng.uniform(0.1, 50, 3),
-            volume=rng.uniform(0.005, 0.2),
-            r_cb=rng.normal(0, 0.03, 3),
-            added_mass=rng.uniform(0, 100, 6),
-            linear_damping=rng.uniform(0, 50, 6),
-            quadratic_damping=rng.uniform(0, 50, 6),
-            height=rng.uniform(0.2, 1.0),
-        )
-        for _ in range(n)
-    ]
 
 
 def _random_bank(rng, n, dt=0.01):
@@ -60,7 +44,7 @@ def test_kernel_wrench_equals_both_numpy_references(seed, with_current, with_thr
     the same model, with the numpy ThrusterBank.step, agree with the kernel to 1e-9."""
     rng = np.random.default_rng(seed)
     n = 3
-    params = _random_params(rng, n)
+    params = random_hydro_params(rng, n)
     q = rng.normal(size=(n, 4))
     rot = matrix_from_wxyz(q / np.linalg.norm(q, axis=1, keepdims=True))
     pos = rng.normal(0, 1, (n, 3)) - [0, 0, 0.3]  # some vehicles breaking the surface

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hydro_reference import random_hydro_params
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
@@ -83,21 +84,6 @@ def test_bad_hydro_params_raise_naming_the_field(field, value):
 
 
 # ---------------------------------------------------------------- vectorization
-def _random_params(rng, n):
-    """``n`` random but physical vehicles (masses 5-200 kg, volumes 5-200 l, ...)."""
-    return [
-        HydroParams(
-            mass=rng.uniform(5, 200),
-            inertia=rng.uniform(0.1, 50, 3),
-            volume=rng.uniform(0.005, 0.2),
-            r_cb=rng.normal(0, 0.03, 3),
-            added_mass=rng.uniform(0, 100, 6),
-            linear_damping=rng.uniform(0, 50, 6),
-            quadratic_damping=rng.uniform(0, 50, 6),
-            height=rng.uniform(0.2, 1.0),
-        )
-        for _ in range(n)
-    ]
 
 
 @settings(max_examples=25, deadline=None)
@@ -106,7 +92,7 @@ def test_batched_hydro_equals_one_vehicle_at_a_time(seed):
     """Second implementation: N separate single-vehicle batches give the same rows."""
     rng = np.random.default_rng(seed)
     n = 4
-    params = _random_params(rng, n)
+    params = random_hydro_params(rng, n)
     q = rng.normal(size=(n, 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     from sim.frames import matrix_from_wxyz
