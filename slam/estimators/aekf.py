@@ -71,14 +71,14 @@ __all__ = [
 _TWO_PI = 2.0 * math.pi
 
 
-def _wrap_f(a: float) -> float:
+def wrap_scalar(a: float) -> float:
     return (a + math.pi) % _TWO_PI - math.pi
 
 
 # --------------------------------------------------------------------------- validation
 
 
-def _check_state(x: np.ndarray, P: np.ndarray, *, psd: bool = False) -> None:
+def check_state(x: np.ndarray, P: np.ndarray, *, psd: bool = False) -> None:
     if x.ndim != 1 or x.size < 3 or (x.size - 3) % 2:
         raise ValueError(f"x must have shape (3 + 2n,), got {x.shape}")
     if P.shape != (x.size, x.size):
@@ -109,7 +109,7 @@ def _check_cov(name: str, C: np.ndarray, tol: float = 1e-9) -> None:
             raise ValueError(f"{name} must be positive semi-definite, got eigenvalue {w.min()}")
 
 
-def _as_odometry(u, Q) -> tuple[np.ndarray, np.ndarray]:
+def as_odometry(u, Q) -> tuple[np.ndarray, np.ndarray]:
     u = np.asarray(u, dtype=float).reshape(-1)
     Q = np.asarray(Q, dtype=float)
     if u.shape != (3,):
@@ -122,7 +122,7 @@ def _as_odometry(u, Q) -> tuple[np.ndarray, np.ndarray]:
     return u, Q
 
 
-def _as_observations(z, R) -> tuple[np.ndarray, np.ndarray]:
+def as_observations(z, R) -> tuple[np.ndarray, np.ndarray]:
     """z (k, 2) [range m, bearing rad]; R (2, 2) or (k, 2, 2). Returns R as (k, 2, 2)."""
     z = np.asarray(z, dtype=float)
     if z.ndim == 1 and z.size == 2:
@@ -188,7 +188,7 @@ def predict(x, P, u, Q, *, x_lin=None, inplace: bool = False):
         Pvm = F @ P[:3, 3:]
         P[:3, 3:] = Pvm
         P[3:, :3] = Pvm.T
-    x[0], x[1], x[2] = xn, yn, _wrap_f(phi + float(u[2]))
+    x[0], x[1], x[2] = xn, yn, wrap_scalar(phi + float(u[2]))
     return x, P
 
 
@@ -205,7 +205,7 @@ def compose_odometry(u1, Q1, u2, Q2) -> tuple[np.ndarray, np.ndarray]:
     u2 = np.asarray(u2, dtype=float)
     c, s = math.cos(u1[2]), math.sin(u1[2])
     u = np.array(
-        [u1[0] + c * u2[0] - s * u2[1], u1[1] + s * u2[0] + c * u2[1], _wrap_f(u1[2] + u2[2])]
+        [u1[0] + c * u2[0] - s * u2[1], u1[1] + s * u2[0] + c * u2[1], wrap_scalar(u1[2] + u2[2])]
     )
     A = np.array(
         [[1.0, 0.0, -(s * u2[0] + c * u2[1])], [0.0, 1.0, c * u2[0] - s * u2[1]], [0, 0, 1]]
@@ -239,7 +239,7 @@ def _HPHt(PHt, idx, Hv, Hm):
     return (np.einsum("kba,am->kbm", Hv, A) + np.einsum("kba,kam->kbm", Hm, B)).reshape(2 * k, -1)
 
 
-def _trsolve(L: np.ndarray, B: np.ndarray, trans: int = 0) -> np.ndarray:
+def trsolve(L: np.ndarray, B: np.ndarray, trans: int = 0) -> np.ndarray:
     """Solve ``L X = B`` (``trans=1``: ``Lᵀ X = B``) for lower-triangular L (LAPACK dtrtrs;
     scipy's ``solve_triangular`` wrapper costs more than the solve at these sizes)."""
     X, info = _lapack.dtrtrs(L, np.ascontiguousarray(B), lower=1, trans=trans)
@@ -248,7 +248,7 @@ def _trsolve(L: np.ndarray, B: np.ndarray, trans: int = 0) -> np.ndarray:
     return X
 
 
-def _subtract_outer(P: np.ndarray, W1: np.ndarray) -> None:
+def subtract_outer(P: np.ndarray, W1: np.ndarray) -> None:
     """``P -= W1 W1ᵀ`` in place, one pass over P (BLAS dgemm on the transposed view)."""
     if P.flags.c_contiguous and P.dtype == np.float64 and P.shape[0] > 64:
         # P is symmetric, so updating Pᵀ (its Fortran-ordered view) updates P.
@@ -347,17 +347,17 @@ def _iterated_mean(x0, P, z, idx, Rb, iterations: int) -> np.ndarray:
         zhat, Hv, Hm = observe(xi, idx)
         PHt, _, L = _gain_factors(P, idx, Hv, Hm, Rb)
         dx_v = x0[:3] - xi[:3]
-        dx_v[2] = _wrap_f(float(dx_v[2]))
+        dx_v[2] = wrap_scalar(float(dx_v[2]))
         dx_m = (x0[cols] - xi[cols]).reshape(-1, 2)
         r = (
             _innovation(z, zhat)
             - np.einsum("kba,a->kb", Hv, dx_v)
             - np.einsum("kba,ka->kb", Hm, dx_m)
         )
-        xn = x0 + _trsolve(L, _trsolve(L, r.reshape(-1)), trans=1) @ PHt.T
-        xn[2] = _wrap_f(float(xn[2]))
+        xn = x0 + trsolve(L, trsolve(L, r.reshape(-1)), trans=1) @ PHt.T
+        xn[2] = wrap_scalar(float(xn[2]))
         step = xn - xi
-        step[2] = _wrap_f(float(step[2]))
+        step[2] = wrap_scalar(float(step[2]))
         xi = xn
         if float(np.max(np.abs(step))) < 1e-9:
             break
@@ -389,8 +389,8 @@ def _update_block(
     y = _innovation(z, zhat).reshape(-1)
     PHt, S, L = _gain_factors(P, idx, Hv, Hm, Rb)
     # W1 = P Hᵀ L⁻ᵀ, K = W1 L⁻¹ (gain, thesis's W); x += K y = W1 (L⁻¹ y)
-    W1 = _trsolve(L, PHt.T).T
-    step = W1 @ _trsolve(L, y)
+    W1 = trsolve(L, PHt.T).T
+    step = W1 @ trsolve(L, y)
     if iterations > 1 and _linearization_error(x, step, idx, Rb) > relinearize_gate:
         # the EKF step left the region where h is linear (a loop closure correcting
         # metres of drift): iterate the mean. The covariance takes H at the converged
@@ -400,21 +400,21 @@ def _update_block(
         x_new = _iterated_mean(x, P, z, idx, Rb, iterations)
         _, Hv, Hm = observe(x, idx, x_lin=x_lin) if x_lin is not None else observe(x_new, idx)
         PHt, S, L = _gain_factors(P, idx, Hv, Hm, Rb)
-        W1 = _trsolve(L, PHt.T).T
+        W1 = trsolve(L, PHt.T).T
         x[...] = x_new
     else:
         x += step
-        x[2] = _wrap_f(float(x[2]))
+        x[2] = wrap_scalar(float(x[2]))
     if joseph:
         # (I-KH)P(I-KH)ᵀ + KRKᵀ = P - K(HP) - (PHᵀ)Kᵀ + K(HPHᵀ + R)Kᵀ, all O(n² k)
-        K = _trsolve(L, W1.T, trans=1).T
+        K = trsolve(L, W1.T, trans=1).T
         KHP = K @ PHt.T
         P -= KHP
         P -= KHP.T
         P += K @ S @ K.T
         P[...] = 0.5 * (P + P.T)
     else:
-        _subtract_outer(P, W1)
+        subtract_outer(P, W1)
 
 
 def augment(x, P, z, R):
@@ -756,9 +756,9 @@ class AEKFSlam:
             raise ValueError(f"x0 must have shape (3,), got {x0.shape}")
         if P0.shape != (3, 3):
             raise ValueError(f"P0 must have shape (3, 3), got {P0.shape}")
-        _check_state(x0, P0, psd=True)
+        check_state(x0, P0, psd=True)
         self.x = x0.copy()
-        self.x[2] = _wrap_f(float(self.x[2]))
+        self.x[2] = wrap_scalar(float(self.x[2]))
         self.P = 0.5 * (P0 + P0.T)
         self._pose_prior = self.x[:3].copy()  # previous predicted pose (FEJ)
         self._lm_first = np.empty((0, 2))  # first estimates (FEJ)
@@ -777,7 +777,7 @@ class AEKFSlam:
 
     def predict_arrays(self, u, Q) -> None:
         """Predict from ``u`` (3,) body-frame increment with covariance ``Q`` (3, 3)."""
-        u, Q = _as_odometry(u, Q)
+        u, Q = as_odometry(u, Q)
         x_lin = self._pose_prior if self.config.jacobians == "fej" else None
         predict(self.x, self.P, u, Q, x_lin=x_lin, inplace=True)
         self._pose_prior = self.x[:3].copy()
@@ -803,7 +803,7 @@ class AEKFSlam:
             return self._update_arrays(z, R, labels)
 
     def _update_arrays(self, z, R, labels) -> UpdateResult:
-        z, R = _as_observations(z, R)
+        z, R = as_observations(z, R)
         k = z.shape[0]
         cfg = self.config
         if labels is not None:
@@ -996,11 +996,11 @@ class AEKFSlam:
         S = PHt[a : a + 2] - PHt[b : b + 2]
         S = 0.5 * (S + S.T) + 1e-12 * np.eye(2)
         L = np.linalg.cholesky(S)
-        W1 = _trsolve(L, PHt.T).T
+        W1 = trsolve(L, PHt.T).T
         y = -(self.x[a : a + 2] - self.x[b : b + 2])
-        self.x += W1 @ _trsolve(L, y)
-        self.x[2] = _wrap_f(float(self.x[2]))
-        _subtract_outer(self.P, W1)
+        self.x += W1 @ trsolve(L, y)
+        self.x[2] = wrap_scalar(float(self.x[2]))
+        subtract_outer(self.P, W1)
 
     def _reduce(self, assoc: np.ndarray, compatible=None) -> np.ndarray:
         """Count misses of landmarks predicted inside the footprint that no observation of

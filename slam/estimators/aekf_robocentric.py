@@ -21,16 +21,16 @@ import numpy as np
 
 from slam.estimators.aekf import (
     AEKFConfig,
-    _as_observations,
-    _as_odometry,
-    _check_state,
-    _subtract_outer,
-    _trsolve,
-    _wrap,
-    _wrap_f,
+    as_observations,
+    as_odometry,
+    check_state,
     select_associations,
+    subtract_outer,
+    trsolve,
+    wrap_scalar,
 )
 from slam.estimators.base import UpdateResult
+from slam.estimators.rb_model import wrap as _wrap
 from slam.types import Odometry, RangeBearing
 
 __all__ = ["RobocentricAEKFSlam", "robo_augment", "robo_predict", "robo_scores", "robo_update"]
@@ -60,7 +60,7 @@ def robo_predict(x, P, u, Q):
     G[b, 2] = -c * px - s * py
     G[2, 2] = -1.0
     x[a], x[b] = c * px + s * py, -s * px + c * py
-    x[2] = _wrap_f(float(x[2]) - float(u[2]))
+    x[2] = wrap_scalar(float(x[2]) - float(u[2]))
     # F = blockdiag(Rot(-dphi), 1, Rot(-dphi), ...): rotate rows then columns, O(n²)
     Pa, Pb = P[a].copy(), P[b].copy()
     P[a], P[b] = c * Pa + s * Pb, -s * Pa + c * Pb
@@ -119,10 +119,10 @@ def robo_update(x, P, z, R, idx):
         S[2 * j : 2 * j + 2, 2 * j : 2 * j + 2] += R[j]
     S = 0.5 * (S + S.T)
     L = np.linalg.cholesky(S)
-    W1 = _trsolve(L, PHt.T).T
-    x += W1 @ _trsolve(L, y.reshape(-1))
-    x[2] = _wrap_f(float(x[2]))
-    _subtract_outer(P, W1)
+    W1 = trsolve(L, PHt.T).T
+    x += W1 @ trsolve(L, y.reshape(-1))
+    x[2] = wrap_scalar(float(x[2]))
+    subtract_outer(P, W1)
     return x, P
 
 
@@ -158,7 +158,7 @@ class RobocentricAEKFSlam:
         self.config = AEKFConfig(**params) if config is None else config
         x0 = np.zeros(3) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
         P0 = np.zeros((3, 3)) if P0 is None else np.asarray(P0, dtype=float)
-        _check_state(x0, P0, psd=True)
+        check_state(x0, P0, psd=True)
         # world origin seen from the vehicle: w = ⊖x0; first order cov J P0 Jᵀ
         c, s = math.cos(x0[2]), math.sin(x0[2])
         w = np.array([-c * x0[0] - s * x0[1], s * x0[0] - c * x0[1], -x0[2]])
@@ -177,7 +177,7 @@ class RobocentricAEKFSlam:
         self.predict_arrays(odometry.delta, odometry.cov)
 
     def predict_arrays(self, u, Q) -> None:
-        u, Q = _as_odometry(u, Q)
+        u, Q = as_odometry(u, Q)
         self.x, self.P = robo_predict(self.x, self.P, u, Q)
 
     def update(self, observations: Sequence[RangeBearing]) -> UpdateResult:
@@ -189,7 +189,7 @@ class RobocentricAEKFSlam:
         return self.update_arrays(z, R, lab)
 
     def update_arrays(self, z, R, labels=None) -> UpdateResult:
-        z, R = _as_observations(z, R)
+        z, R = as_observations(z, R)
         cfg = self.config
         k = z.shape[0]
         if k == 0:
@@ -256,7 +256,7 @@ class RobocentricAEKFSlam:
         Jp = np.zeros((3, 5))
         Jp[:2] = J[0]
         Jp[2, 2] = -1.0
-        return np.array([g[0, 0], g[0, 1], _wrap_f(-float(self.x[2]))]), Jp @ Sig[0] @ Jp.T
+        return np.array([g[0, 0], g[0, 1], wrap_scalar(-float(self.x[2]))]), Jp @ Sig[0] @ Jp.T
 
     def landmarks(self) -> tuple[np.ndarray, np.ndarray]:
         n = self.n_landmarks
