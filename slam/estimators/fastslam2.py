@@ -273,6 +273,7 @@ class FastSLAM2Config:
     initial_capacity: int = 32
     loop_drift_100m: float = 0.7
     loop_anchor_window_m: float = 120.0
+    weighting: str = "predictive"
 
     def __post_init__(self) -> None:
         if not (isinstance(self.n_particles, int | np.integer) and self.n_particles >= 1):
@@ -298,6 +299,10 @@ class FastSLAM2Config:
         if self.resampler not in ("systematic", "stratified"):
             raise ValueError(
                 f"resampler must be 'systematic' or 'stratified', got {self.resampler!r}"
+            )
+        if self.weighting not in ("predictive", "proposal"):
+            raise ValueError(
+                f"weighting must be 'predictive' or 'proposal', got {self.weighting!r}"
             )
         if self.map_estimate not in ("best", "weighted"):
             raise ValueError(
@@ -354,6 +359,7 @@ class FastSLAM2:
         initial_capacity: int = 32,
         loop_drift_100m: float = 0.7,
         loop_anchor_window_m: float = 120.0,
+        weighting: str = "predictive",
         seed: int | None = None,
         x0=None,
         P0=None,
@@ -372,6 +378,7 @@ class FastSLAM2:
                 initial_capacity=initial_capacity,
                 loop_drift_100m=loop_drift_100m,
                 loop_anchor_window_m=loop_anchor_window_m,
+                weighting=weighting,
             )
         self.config = config
         if rng is None:
@@ -671,19 +678,19 @@ class FastSLAM2:
             Pv[:, 1, 1] += pvar
             Pv[:, 2, 2] += hvar
         logw = logw + np.where(valid, 0.0, loglik).sum(axis=1)
-        if valid.any():
-            logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid)
-        logw -= logw.max()  # keep in range; the normalization is implicit
-        w, _ = normalize_log_weights(logw)
-        if 1.0 / np.sum(w * w) < self._threshold * n:
-            idx = self._resample(w, self.rng)
-            xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
-            assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]
-            xv_rb, Pv_rb = xv_rb[idx], Pv_rb[idx]
-            logw = np.zeros(n)
-            resampled = True
-        else:
-            resampled = False
+        resampled = False
+        if cfg.weighting == "predictive":
+            if valid.any():
+                logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid)
+            logw -= logw.max()  # keep in range; the normalization is implicit
+            idx = self._resample_index(logw)
+            if idx is not None:
+                xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
+                assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]
+                xv_rb, Pv_rb = xv_rb[idx], Pv_rb[idx]
+                logw = np.zeros(n)
+                resampled = True
+        xv_prior, Pv_prior = xv.copy(), Pv.copy()
 
         # ---------------------------------------------------------- proposal (sequential EKF)
         ar = np.arange(n)
@@ -720,6 +727,11 @@ class FastSLAM2:
             eps = self.rng.standard_normal((int(draw.sum()), 3))
             xv[draw] = xv[draw] + np.einsum("sij,sj->si", L, eps)
             xv[draw, 2] = _wrap(xv[draw, 2])
+            if cfg.weighting == "proposal" and valid.any():
+                # Bailey 2004: w *= p(z | xs, m) p(xs | x_{k-1}) / q(xs), one-sample estimate
+                logw = logw + self._sample_log_weight(
+                    xv, xv_rb, Pv_rb, xv_prior, Pv_prior, m, P, Z, R, assoc
+                )
             Pv[draw] = 0.0
 
         # ---------------------------------------------------------- landmark EKF updates
@@ -765,6 +777,16 @@ class FastSLAM2:
             count = np.maximum(count, first_free + unk_new.sum(axis=1))
             assoc[pi, pj] = slots
 
+        if cfg.weighting == "proposal":
+            logw -= logw.max()
+            idx = self._resample_index(logw) if valid.any() else None
+            if idx is not None:  # after the updates, as Bailey's 2004 fastslam2_sim
+                xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
+                assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]
+                xv_rb, Pv_rb, newmask = xv_rb[idx], Pv_rb[idx], newmask[idx]
+                logw = np.zeros(n)
+                resampled = True
+
         # ---------------------------------------------------------- commit
         self._xv, self._Pv, self._logw = xv, Pv, logw
         self._m, self._P, self._exists, self._count = m, P, exists, count
@@ -776,6 +798,41 @@ class FastSLAM2:
         self.n_resamples += int(resampled)
         b = int(np.argmax(logw))
         return UpdateResult(associations=assoc[b].copy(), new=newmask[b].copy(), nis=nis[b].copy())
+
+    def _resample_index(self, logw: np.ndarray) -> np.ndarray | None:
+        """Resampling indexes when ``N_eff < resample_threshold * N``, else None."""
+        w, _ = normalize_log_weights(logw)
+        if 1.0 / np.sum(w * w) < self._threshold * w.size:
+            return self._resample(w, self.rng)
+        return None
+
+    @staticmethod
+    def _sample_log_weight(xs, xq, Pq, x0, P0, m, P, Z, R, assoc) -> np.ndarray:
+        """(n,) ``log p(z | xs, m) + log N(xs; x0, P0) - log N(xs; xq, Pq)`` for the sampled
+        poses ``xs`` (n, 3) drawn from the proposal ``N(xq, Pq)`` with the prior ``N(x0, P0)``
+        (Bailey's 2004 ``sample_proposal``: per-observation ``S = Hf Pf Hf^T + R`` at ``xs``).
+        Particles without an associated observation get 0 (``xq = x0``, ``Pq = P0``)."""
+        valid = assoc >= 0
+        n = assoc.shape[0]
+        rows = np.arange(n)[:, None]
+        sl = np.where(valid, assoc, 0)
+        zhat, _, Hf = observation_model(xs[:, None, :], m[rows, sl])
+        v = Z[None] - zhat
+        v[..., 1] = _wrap(v[..., 1])
+        Si, det = _inv2(_quad(Hf, P[rows, sl]) + R[None])
+        ll = -0.5 * np.einsum("...i,...ij,...j->...", v, Si, v) - 0.5 * np.log(det) - _LOG_2PI
+        like = np.where(valid, ll, 0.0).sum(axis=1)
+
+        def log_gauss3(d, C):
+            d = d.copy()
+            d[:, 2] = _wrap(d[:, 2])
+            C = _sym(C) + 1e-12 * np.eye(3)  # a pose covariance may be singular (P0 = 0)
+            _, logdet = np.linalg.slogdet(C)
+            q = np.einsum("ni,ni->n", d, np.linalg.solve(C, d[..., None])[..., 0])
+            return -0.5 * q - 0.5 * logdet
+
+        ratio = log_gauss3(xs - x0, P0) - log_gauss3(xs - xq, Pq)
+        return np.where(valid.any(axis=1), like + ratio, 0.0)
 
     @staticmethod
     def _joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid) -> np.ndarray:
