@@ -24,7 +24,6 @@ import time
 
 import numpy as np
 
-
 # The reference's MATLAB run times (thesis ch. 6): AEKF, FastSLAM 2.0 (s).
 REFERENCE_MATLAB_S = {"dense-loop": (137.937051, 525.526820), "line": (99.8, 594.1)}
 

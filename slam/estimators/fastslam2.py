@@ -685,7 +685,14 @@ class FastSLAM2:
             logw -= logw.max()  # keep in range; the normalization is implicit
             idx = self._resample_index(logw)
             if idx is not None:
-                xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
+                xv, Pv, m, P, exists, count = (
+                    xv[idx],
+                    Pv[idx],
+                    m[idx],
+                    P[idx],
+                    exists[idx],
+                    count[idx],
+                )
                 assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]
                 xv_rb, Pv_rb = xv_rb[idx], Pv_rb[idx]
                 logw = np.zeros(n)
@@ -781,7 +788,14 @@ class FastSLAM2:
             logw -= logw.max()
             idx = self._resample_index(logw) if valid.any() else None
             if idx is not None:  # after the updates, as Bailey's 2004 fastslam2_sim
-                xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
+                xv, Pv, m, P, exists, count = (
+                    xv[idx],
+                    Pv[idx],
+                    m[idx],
+                    P[idx],
+                    exists[idx],
+                    count[idx],
+                )
                 assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]
                 xv_rb, Pv_rb, newmask = xv_rb[idx], Pv_rb[idx], newmask[idx]
                 logw = np.zeros(n)
