@@ -48,28 +48,22 @@ landmark slot, meaningful with known association only (slots are then the same p
 landmark in every particle). Landmark indices in :class:`UpdateResult` and
 :meth:`landmarks` refer to the same slots.
 
-Known behaviour (measured on the dense-loop map, 2 loops, dt 0.025 s, 100 particles, the
-runner's seeds 0-19): with known association and the default (Bailey's and the thesis's)
-75 % resampling rule the median landmark RMSE is 6.25 m (runs 1.9-14 m; Bailey's MATLAB:
-3.4 m, with 5 of 20 runs collapsing); with ``resample_threshold=0`` (never resample)
-2.84 m (runs 1.2-7.3 m). A step-by-step comparison with Bailey's
-fastslam2_sim (predict without noise growing Pv, weight before resampling, resampling
-before the sequential-EKF proposal, Pv zeroed after sampling, landmark EKFs at the sampled
-pose, add_feature) found no differing step; the one differing detail, the weight (joint
-Gaussian over a scan as Bailey's later compute_weight, vs his 2004 product of
-per-observation densities), gave 4.8 m with the product on seeds 0-19, and the joint form
-gives 4.8 m on seeds 20-39: medians of 20 runs scatter by about +-1.5 m. What closes the
-gap is the resampling rule: on this sparse map (0-2 landmarks per scan) per-scan weight
-noise triggers resampling long before the loop closes. The filter is badly inconsistent
-either way: the time mean of the average NEES is ~4e4 with the 75 % rule and ~8e6 without
-resampling (one particle carries the weight and its covariance is the proposal's,
-centimetres, against metres of drift). With
-``association="ml"`` the median RMSE (runner's one-to-one match) is 6.2 m (before the
-loop-closure allowance 13.5 m), no run ends with more landmarks than the 30 seen (before:
-every run, ~29 extra), but 2 of 20 runs (3 of seeds 20-39) merge two true landmarks into
-one; time-mean NEES ~3e4. The allowance costs time: ``undersea bench slam`` FastSLAM/AEKF
-5.8-5.9 (5.0 without, same machine). More particles help (1000 with Bailey's rule:
-consistent over the first loop, ~10x the time).
+Two importance weights (``weighting``): ``"predictive"`` (default) is step (2) above, the
+weight of Bailey's later fastslam2_sim, computed before resampling and the proposal;
+``"proposal"`` is Bailey's 2004 fastslam2 (as the C++ ports by matzipan and bushuhui):
+after the proposal and sampling ``xs``, ``w *= p(z | xs, m) N(xs; x_{k-1}, Pv_{k-1}) /
+N(xs; mu, Sigma)`` with per-observation ``S = Hf Pf Hf^T + R`` (no pose term; a one-sample
+estimate of the predictive density), and resampling *after* the landmark updates and
+augmentation. Both keep log weights. Details that match Bailey in both: observations are
+processed in scan order; new landmarks are initialised at the sampled pose with
+``Pf = Gz R Gz^T``; the pose covariance after sampling is 0 (Bailey: ``eps I``, 2e-16,
+immaterial); the odometry covariance between scans is the exact linearized composition of
+the per-step increments (the runner's ``compose_increments``), i.e. Bailey's per-step
+``Gv Pv Gv^T + Gu Q Gu^T`` to first order. One difference remains: the sequential proposal
+relinearizes each observation at the mean refined by the previous ones (Bailey's 2004 code
+linearizes all of a scan's observations at the predicted pose). Measured accuracy, consistency and run time on
+the reference's maps, beside Bailey's Octave results: ``slam/experiments/README.md``.
+The filter is inconsistent with 100 particles (Bailey, Nieto and Nebot, ICRA 2006).
 
 The algorithm is hand-written (no library implements FastSLAM 2.0 on arrays);
 resampling comes from :mod:`slam.estimators.resampling`.
@@ -212,18 +206,16 @@ class FastSLAM2Config:
 
     n_particles : number of particles (thesis: 100).
     resample_threshold : resample when ``N_eff < resample_threshold * n_particles``
-        (thesis and Bailey: 75 of 100 → 0.75, the default). 0.0 never resamples, which
-        measured more accurate with ``association="known"``: between loop closures the log
-        weights drift apart by the per-scan proposal noise (tens of nats over the dense
-        loop), which says little about the accumulated path drift; resampling on it leaves
-        all particles descended from a few scans-old ancestors, so at the loop closure no
-        path hypothesis with a small drift is left. Kept in log form, the unresampled
-        particles stay independent path hypotheses, and the closure's likelihood (hundreds
-        to thousands of nats) selects the one whose map agrees best (dense loop, known
-        association, 20 runs: median landmark RMSE 6.25 m → 2.84 m, but the pose NEES grows
-        from ~4e4 to ~8e6: after the closure one particle holds all the weight). With
+        (thesis and Bailey: 75 of 100 → 0.75, the default). 0.0 never resamples: with
+        ``association="known"`` and the predictive weight the log-weighted particles then stay
+        independent path hypotheses (per-scan weight noise on a sparse map otherwise
+        resamples away the low-drift paths long before the loop closes) and the closure's
+        likelihood selects among them; after it one particle holds the weight. With
         maximum-likelihood association the particles must also agree on the associations,
-        and the Neff rule is better (measured).
+        and the N_eff rule is better (measured, see slam/experiments/README.md).
+    weighting : "predictive" (default; ``p(z | x_{k-1})`` before resampling, Bailey's later
+        code) or "proposal" (Bailey's 2004 sample weight after the proposal, resampling
+        after the updates); see the module docstring.
     reject_gate : an unlabelled observation is associated with the maximum-likelihood
         landmark among those whose normalized innovation squared (NIS, chi-square with 2
         dof) is below this gate (4.0 as the AEKF).
