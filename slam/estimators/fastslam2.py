@@ -14,9 +14,10 @@ implementation. This version follows Bailey's structure and fixes its known fail
   (loop closure) never underflows every weight to zero — Bailey's implementation
   multiplies linear weights and collapses there; (3) resampling (systematic by default,
   stratified as Bailey) when ``N_eff < resample_threshold * N``, *before* the proposal as
-  Bailey does, for particle diversity (``resample_threshold=0`` never resamples: with
-  labels the log-weighted particles then stay independent path hypotheses for the loop
-  closure to choose among, see :attr:`FastSLAM2Config.resample_threshold`); (4) the
+  Bailey does, for particle diversity — by default with Bailey's 75 % rule for
+  maximum-likelihood association and never with known association (labels): the
+  log-weighted particles then stay independent path hypotheses for the loop closure to
+  choose among, see :attr:`FastSLAM2Config.resample_threshold`; (4) the
   FastSLAM 2.0 proposal: the pose mean and
   covariance are refined by a sequential EKF update with every associated observation,
   then a new pose is *sampled* from that Gaussian with the ``rng`` given; (5) per-particle
@@ -206,7 +207,8 @@ class FastSLAM2Config:
 
     n_particles : number of particles (thesis: 100).
     resample_threshold : resample when ``N_eff < resample_threshold * n_particles``
-        (thesis and Bailey: 75 of 100 → 0.75, the default). 0.0 never resamples: with
+        (thesis and Bailey: 75 of 100 → 0.75). None (default) → 0.0 with
+        ``association="known"``, 0.75 otherwise. 0.0 never resamples: with
         ``association="known"`` and the predictive weight the log-weighted particles then stay
         independent path hypotheses (per-scan weight noise on a sparse map otherwise
         resamples away the low-drift paths long before the loop closes) and the closure's
@@ -255,7 +257,7 @@ class FastSLAM2Config:
     """
 
     n_particles: int = 100
-    resample_threshold: float = 0.75
+    resample_threshold: float | None = None
     reject_gate: float = 4.0
     augment_gate: float = 25.0
     new_landmark_log_likelihood: float | None = None
@@ -270,6 +272,9 @@ class FastSLAM2Config:
     def __post_init__(self) -> None:
         if not (isinstance(self.n_particles, int | np.integer) and self.n_particles >= 1):
             raise ValueError(f"n_particles must be an integer >= 1, got {self.n_particles!r}")
+        if self.resample_threshold is None:  # resolved here: config shows the value used
+            default = 0.0 if self.association == "known" else 0.75
+            object.__setattr__(self, "resample_threshold", default)
         if not 0.0 <= self.resample_threshold <= 1.0:
             raise ValueError(
                 f"resample_threshold must be in [0, 1], got {self.resample_threshold!r}"
@@ -340,7 +345,7 @@ class FastSLAM2:
         self,
         n_particles: int = 100,
         rng: np.random.Generator | None = None,
-        resample_threshold: float = 0.75,
+        resample_threshold: float | None = None,
         reject_gate: float = 4.0,
         augment_gate: float = 25.0,
         *,

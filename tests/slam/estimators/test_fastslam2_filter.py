@@ -226,16 +226,18 @@ def test_resampling_runs_only_when_effective_sample_size_drops_below_75_percent(
     np.testing.assert_allclose(f.weights, np.full(100, 0.01))
 
 
-def test_default_resampling_rule_is_the_thesis_75_percent():
-    """The thesis's and Bailey's rule by default in every association mode (resample when
-    N_eff < 75 of 100); an explicit value wins, and 0 never resamples. The same very
-    unequal weights as above must trigger resampling only where the rule says so."""
-    assert FastSLAM2(n_particles=4, seed=0, association="known")._threshold == 0.75
+def test_default_resampling_rule_is_bailey_75_percent_except_with_labels():
+    """The thesis's and Bailey's rule (resample when N_eff < 75 of 100) by default with
+    maximum-likelihood or auto association; with known association the default never
+    resamples (0.0); an explicit value wins everywhere. The same very unequal weights as
+    above must trigger resampling only where the rule says so."""
     assert FastSLAM2(n_particles=4, seed=0, association="ml")._threshold == 0.75
     assert FastSLAM2(n_particles=4, seed=0, association="auto")._threshold == 0.75
+    assert FastSLAM2(n_particles=4, seed=0, association="known")._threshold == 0.0
+    assert FastSLAM2Config(association="known").resample_threshold == 0.0
     assert (
-        FastSLAM2(n_particles=4, seed=0, association="known", resample_threshold=0.0)._threshold
-        == 0.0
+        FastSLAM2(n_particles=4, seed=0, association="known", resample_threshold=0.75)._threshold
+        == 0.75
     )
     f, lms, x = _loop_filter(n=100, seed=1, resample_threshold=0.0)
     f._xv = np.tile(x, (100, 1))
