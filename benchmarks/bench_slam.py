@@ -8,6 +8,8 @@
 2. AEKF update time versus number of landmarks (100, 500, 2,000): one scan = predict +
    gated ML association against all landmarks + batch update with 2 observations; the
    log-log slope shows the O(n²) growth. Goal: 2,000 landmarks at >= 50 updates/s.
+3. The same FastSLAM 2.0 / AEKF ratio on the line map (reference's MATLAB: 594.1 s / 99.8 s
+   = 5.95), then the load average at start and end of the run.
 
 BLAS is limited to one thread (the filters' small matrices only lose from threads on a
 shared 2-core machine); ``--blas-threads`` changes that for the scaling part.
@@ -17,22 +19,28 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 
 import numpy as np
 
+# The reference's MATLAB run times (thesis ch. 6): AEKF, FastSLAM 2.0 (s).
+REFERENCE_MATLAB_S = {"dense-loop": (137.937051, 525.526820), "line": (99.8, 594.1)}
 
-def _dense_loop_times(runs: int, skip_fastslam: bool, skip_isam2: bool) -> dict:
+
+def _dense_loop_times(
+    runs: int, skip_fastslam: bool, skip_isam2: bool, experiment: str = "dense-loop", full=True
+) -> dict:
     from slam.experiments import get_experiment, run_once
     from slam.sim2d import simulate_run
 
-    spec = get_experiment("dense-loop")
-    names = ["aekf", "aekf-fej", "aekf-consistent"]
+    spec = get_experiment(experiment)
+    names = ["aekf", "aekf-fej", "aekf-consistent"] if full else ["aekf"]
     if not skip_fastslam:
         names.append("fastslam2")
     if not skip_isam2:
         names.append("isam2")
-    out: dict = {"experiment": "dense-loop", "runs": runs, "n_scans": None, "estimators": {}}
+    out: dict = {"experiment": experiment, "runs": runs, "n_scans": None, "estimators": {}}
     sim_t = []
     for r in range(runs):
         ss = np.random.SeedSequence(r)
@@ -69,13 +77,16 @@ def _dense_loop_times(runs: int, skip_fastslam: bool, skip_isam2: bool) -> dict:
         out["ratio_fastslam2_over_aekf"] = (
             est["fastslam2"]["time_s_mean"] / est["aekf"]["time_s_mean"]
         )
-    out["reference_matlab_s"] = {
-        "aekf": 137.937051,
-        "fastslam2": 525.526820,
-        "ratio": 525.526820 / 137.937051,
-    }
+    t_aekf, t_fs = REFERENCE_MATLAB_S[experiment]
+    out["reference_matlab_s"] = {"aekf": t_aekf, "fastslam2": t_fs, "ratio": t_fs / t_aekf}
     out["target_aekf_s"] = 1.0
     return out
+
+
+def _cpu_ratio(d: dict) -> float:
+    """FastSLAM 2.0 / AEKF ratio of CPU times (less sensitive to load than wall time)."""
+    e = d["estimators"]
+    return e["fastslam2"]["cpu_s_mean"] / e["aekf"]["cpu_s_mean"]
 
 
 def _scaling(sizes, n_steps: int, seed: int = 0) -> dict:
@@ -214,7 +225,11 @@ def main(argv=None) -> int:
     from threadpoolctl import threadpool_limits
 
     sizes = [int(s) for s in args.sizes.split(",") if s]
+    load_start = os.getloadavg()
     result = {"dense_loop": _dense_loop_times(args.runs, args.skip_fastslam, args.skip_isam2)}
+    if not args.skip_fastslam:  # the thesis's second cost comparison: the line map
+        result["line"] = _dense_loop_times(args.runs, False, True, "line", full=False)
+    result["load_average_1_5_15"] = {"start": load_start, "end": os.getloadavg()}
     with threadpool_limits(limits=args.blas_threads, user_api="blas"):
         result["scaling"] = _scaling(sizes, args.steps)
         result["submaps"] = _submap_run(
@@ -238,9 +253,33 @@ def main(argv=None) -> int:
             )
     if "ratio_fastslam2_over_aekf" in d:
         print(
-            f"  FastSLAM 2.0 / AEKF time ratio {d['ratio_fastslam2_over_aekf']:.1f} "
+            f"  FastSLAM 2.0 / AEKF time ratio {d['ratio_fastslam2_over_aekf']:.1f} wall, "
+            f"{_cpu_ratio(d):.1f} CPU "
             f"(reference MATLAB {d['reference_matlab_s']['ratio']:.2f}); AEKF target <= 1 s"
         )
+    if "line" in result:
+        ln = result["line"]
+        for name, e in ln["estimators"].items():
+            if "time_s_mean" in e:
+                print(
+                    f"line map, {ln['n_scans']} scans: {name:10s} {e['time_s_mean']:8.3f} s wall "
+                    f"({e['cpu_s_mean']:.3f} s CPU) per run"
+                )
+        if "ratio_fastslam2_over_aekf" in ln:
+            print(
+                f"  FastSLAM 2.0 / AEKF time ratio {ln['ratio_fastslam2_over_aekf']:.1f} wall, "
+                f"{_cpu_ratio(ln):.1f} CPU (reference MATLAB {ln['reference_matlab_s']['ratio']:.2f})"
+            )
+    la = result["load_average_1_5_15"]
+    print(
+        "load average (1, 5, 15 min) at start "
+        + ", ".join(f"{v:.1f}" for v in la["start"])
+        + "; at end "
+        + ", ".join(f"{v:.1f}" for v in la["end"])
+        + " on "
+        + str(os.cpu_count())
+        + " CPUs (ratios are measured in one run; wall times scale with load)"
+    )
     s = result["scaling"]
     print(
         f"AEKF scan update (predict + association over all landmarks + batch update of 2), BLAS threads {args.blas_threads}:"

@@ -14,9 +14,10 @@ implementation. This version follows Bailey's structure and fixes its known fail
   (loop closure) never underflows every weight to zero — Bailey's implementation
   multiplies linear weights and collapses there; (3) resampling (systematic by default,
   stratified as Bailey) when ``N_eff < resample_threshold * N``, *before* the proposal as
-  Bailey does, for particle diversity (``resample_threshold=0`` never resamples: with
-  labels the log-weighted particles then stay independent path hypotheses for the loop
-  closure to choose among, see :attr:`FastSLAM2Config.resample_threshold`); (4) the
+  Bailey does, for particle diversity — by default with Bailey's 75 % rule for
+  maximum-likelihood association and never with known association (labels): the
+  log-weighted particles then stay independent path hypotheses for the loop closure to
+  choose among, see :attr:`FastSLAM2Config.resample_threshold`; (4) the
   FastSLAM 2.0 proposal: the pose mean and
   covariance are refined by a sequential EKF update with every associated observation,
   then a new pose is *sampled* from that Gaussian with the ``rng`` given; (5) per-particle
@@ -48,28 +49,22 @@ landmark slot, meaningful with known association only (slots are then the same p
 landmark in every particle). Landmark indices in :class:`UpdateResult` and
 :meth:`landmarks` refer to the same slots.
 
-Known behaviour (measured on the dense-loop map, 2 loops, dt 0.025 s, 100 particles, the
-runner's seeds 0-19): with known association and the default (Bailey's and the thesis's)
-75 % resampling rule the median landmark RMSE is 6.25 m (runs 1.9-14 m; Bailey's MATLAB:
-3.4 m, with 5 of 20 runs collapsing); with ``resample_threshold=0`` (never resample)
-2.84 m (runs 1.2-7.3 m). A step-by-step comparison with Bailey's
-fastslam2_sim (predict without noise growing Pv, weight before resampling, resampling
-before the sequential-EKF proposal, Pv zeroed after sampling, landmark EKFs at the sampled
-pose, add_feature) found no differing step; the one differing detail, the weight (joint
-Gaussian over a scan as Bailey's later compute_weight, vs his 2004 product of
-per-observation densities), gave 4.8 m with the product on seeds 0-19, and the joint form
-gives 4.8 m on seeds 20-39: medians of 20 runs scatter by about +-1.5 m. What closes the
-gap is the resampling rule: on this sparse map (0-2 landmarks per scan) per-scan weight
-noise triggers resampling long before the loop closes. The filter is badly inconsistent
-either way: the time mean of the average NEES is ~4e4 with the 75 % rule and ~8e6 without
-resampling (one particle carries the weight and its covariance is the proposal's,
-centimetres, against metres of drift). With
-``association="ml"`` the median RMSE (runner's one-to-one match) is 6.2 m (before the
-loop-closure allowance 13.5 m), no run ends with more landmarks than the 30 seen (before:
-every run, ~29 extra), but 2 of 20 runs (3 of seeds 20-39) merge two true landmarks into
-one; time-mean NEES ~3e4. The allowance costs time: ``undersea bench slam`` FastSLAM/AEKF
-5.8-5.9 (5.0 without, same machine). More particles help (1000 with Bailey's rule:
-consistent over the first loop, ~10x the time).
+Two importance weights (``weighting``): ``"predictive"`` (default) is step (2) above, the
+weight of Bailey's later fastslam2_sim, computed before resampling and the proposal;
+``"proposal"`` is Bailey's 2004 fastslam2 (as the C++ ports by matzipan and bushuhui):
+after the proposal and sampling ``xs``, ``w *= p(z | xs, m) N(xs; x_{k-1}, Pv_{k-1}) /
+N(xs; mu, Sigma)`` with per-observation ``S = Hf Pf Hf^T + R`` (no pose term; a one-sample
+estimate of the predictive density), and resampling *after* the landmark updates and
+augmentation. Both keep log weights. Details that match Bailey in both: observations are
+processed in scan order; new landmarks are initialised at the sampled pose with
+``Pf = Gz R Gz^T``; the pose covariance after sampling is 0 (Bailey: ``eps I``, 2e-16,
+immaterial); the odometry covariance between scans is the exact linearized composition of
+the per-step increments (the runner's ``compose_increments``), i.e. Bailey's per-step
+``Gv Pv Gv^T + Gu Q Gu^T`` to first order. One difference remains: the sequential proposal
+relinearizes each observation at the mean refined by the previous ones (Bailey's 2004 code
+linearizes all of a scan's observations at the predicted pose). Measured accuracy, consistency and run time on
+the reference's maps, beside Bailey's Octave results: ``slam/experiments/README.md``.
+The filter is inconsistent with 100 particles (Bailey, Nieto and Nebot, ICRA 2006).
 
 The algorithm is hand-written (no library implements FastSLAM 2.0 on arrays);
 resampling comes from :mod:`slam.estimators.resampling`.
@@ -194,18 +189,17 @@ class FastSLAM2Config:
 
     n_particles : number of particles (thesis: 100).
     resample_threshold : resample when ``N_eff < resample_threshold * n_particles``
-        (thesis and Bailey: 75 of 100 → 0.75, the default). 0.0 never resamples, which
-        measured more accurate with ``association="known"``: between loop closures the log
-        weights drift apart by the per-scan proposal noise (tens of nats over the dense
-        loop), which says little about the accumulated path drift; resampling on it leaves
-        all particles descended from a few scans-old ancestors, so at the loop closure no
-        path hypothesis with a small drift is left. Kept in log form, the unresampled
-        particles stay independent path hypotheses, and the closure's likelihood (hundreds
-        to thousands of nats) selects the one whose map agrees best (dense loop, known
-        association, 20 runs: median landmark RMSE 6.25 m → 2.84 m, but the pose NEES grows
-        from ~4e4 to ~8e6: after the closure one particle holds all the weight). With
+        (thesis and Bailey: 75 of 100 → 0.75). None (default) → 0.0 with
+        ``association="known"``, 0.75 otherwise. 0.0 never resamples: with
+        ``association="known"`` and the predictive weight the log-weighted particles then stay
+        independent path hypotheses (per-scan weight noise on a sparse map otherwise
+        resamples away the low-drift paths long before the loop closes) and the closure's
+        likelihood selects among them; after it one particle holds the weight. With
         maximum-likelihood association the particles must also agree on the associations,
-        and the Neff rule is better (measured).
+        and the N_eff rule is better (measured, see slam/experiments/README.md).
+    weighting : "predictive" (default; ``p(z | x_{k-1})`` before resampling, Bailey's later
+        code) or "proposal" (Bailey's 2004 sample weight after the proposal, resampling
+        after the updates); see the module docstring.
     reject_gate : an unlabelled observation is associated with the maximum-likelihood
         landmark among those whose normalized innovation squared (NIS, chi-square with 2
         dof) is below this gate (4.0 as the AEKF).
@@ -245,7 +239,7 @@ class FastSLAM2Config:
     """
 
     n_particles: int = 100
-    resample_threshold: float = 0.75
+    resample_threshold: float | None = None
     reject_gate: float = 4.0
     augment_gate: float = 25.0
     new_landmark_log_likelihood: float | None = None
@@ -255,10 +249,14 @@ class FastSLAM2Config:
     initial_capacity: int = 32
     loop_drift_100m: float = 0.7
     loop_anchor_window_m: float = 120.0
+    weighting: str = "predictive"
 
     def __post_init__(self) -> None:
         if not (isinstance(self.n_particles, int | np.integer) and self.n_particles >= 1):
             raise ValueError(f"n_particles must be an integer >= 1, got {self.n_particles!r}")
+        if self.resample_threshold is None:  # resolved here: config shows the value used
+            default = 0.0 if self.association == "known" else 0.75
+            object.__setattr__(self, "resample_threshold", default)
         if not 0.0 <= self.resample_threshold <= 1.0:
             raise ValueError(
                 f"resample_threshold must be in [0, 1], got {self.resample_threshold!r}"
@@ -280,6 +278,10 @@ class FastSLAM2Config:
         if self.resampler not in ("systematic", "stratified"):
             raise ValueError(
                 f"resampler must be 'systematic' or 'stratified', got {self.resampler!r}"
+            )
+        if self.weighting not in ("predictive", "proposal"):
+            raise ValueError(
+                f"weighting must be 'predictive' or 'proposal', got {self.weighting!r}"
             )
         if self.map_estimate not in ("best", "weighted"):
             raise ValueError(
@@ -325,7 +327,7 @@ class FastSLAM2:
         self,
         n_particles: int = 100,
         rng: np.random.Generator | None = None,
-        resample_threshold: float = 0.75,
+        resample_threshold: float | None = None,
         reject_gate: float = 4.0,
         augment_gate: float = 25.0,
         *,
@@ -336,6 +338,7 @@ class FastSLAM2:
         initial_capacity: int = 32,
         loop_drift_100m: float = 0.7,
         loop_anchor_window_m: float = 120.0,
+        weighting: str = "predictive",
         seed: int | None = None,
         x0=None,
         P0=None,
@@ -354,6 +357,7 @@ class FastSLAM2:
                 initial_capacity=initial_capacity,
                 loop_drift_100m=loop_drift_100m,
                 loop_anchor_window_m=loop_anchor_window_m,
+                weighting=weighting,
             )
         self.config = config
         if rng is None:
@@ -653,19 +657,26 @@ class FastSLAM2:
             Pv[:, 1, 1] += pvar
             Pv[:, 2, 2] += hvar
         logw = logw + np.where(valid, 0.0, loglik).sum(axis=1)
-        if valid.any():
-            logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid)
-        logw -= logw.max()  # keep in range; the normalization is implicit
-        w, _ = normalize_log_weights(logw)
-        if 1.0 / np.sum(w * w) < self._threshold * n:
-            idx = self._resample(w, self.rng)
-            xv, Pv, m, P, exists, count = xv[idx], Pv[idx], m[idx], P[idx], exists[idx], count[idx]
-            assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]
-            xv_rb, Pv_rb = xv_rb[idx], Pv_rb[idx]
-            logw = np.zeros(n)
-            resampled = True
-        else:
-            resampled = False
+        resampled = False
+        if cfg.weighting == "predictive":
+            if valid.any():
+                logw = logw + self._joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid)
+            logw -= logw.max()  # keep in range; the normalization is implicit
+            idx = self._resample_index(logw)
+            if idx is not None:
+                xv, Pv, m, P, exists, count = (
+                    xv[idx],
+                    Pv[idx],
+                    m[idx],
+                    P[idx],
+                    exists[idx],
+                    count[idx],
+                )
+                assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]
+                xv_rb, Pv_rb = xv_rb[idx], Pv_rb[idx]
+                logw = np.zeros(n)
+                resampled = True
+        xv_prior, Pv_prior = xv.copy(), Pv.copy()
 
         # ---------------------------------------------------------- proposal (sequential EKF)
         ar = np.arange(n)
@@ -702,6 +713,11 @@ class FastSLAM2:
             eps = self.rng.standard_normal((int(draw.sum()), 3))
             xv[draw] = xv[draw] + np.einsum("sij,sj->si", L, eps)
             xv[draw, 2] = _wrap(xv[draw, 2])
+            if cfg.weighting == "proposal" and valid.any():
+                # Bailey 2004: w *= p(z | xs, m) p(xs | x_{k-1}) / q(xs), one-sample estimate
+                logw = logw + self._sample_log_weight(
+                    xv, xv_rb, Pv_rb, xv_prior, Pv_prior, m, P, Z, R, assoc
+                )
             Pv[draw] = 0.0
 
         # ---------------------------------------------------------- landmark EKF updates
@@ -747,6 +763,23 @@ class FastSLAM2:
             count = np.maximum(count, first_free + unk_new.sum(axis=1))
             assoc[pi, pj] = slots
 
+        if cfg.weighting == "proposal":
+            logw -= logw.max()
+            idx = self._resample_index(logw) if valid.any() else None
+            if idx is not None:  # after the updates, as Bailey's 2004 fastslam2_sim
+                xv, Pv, m, P, exists, count = (
+                    xv[idx],
+                    Pv[idx],
+                    m[idx],
+                    P[idx],
+                    exists[idx],
+                    count[idx],
+                )
+                assoc, nis, mapped, updated = assoc[idx], nis[idx], mapped[idx], updated[idx]
+                xv_rb, Pv_rb, newmask = xv_rb[idx], Pv_rb[idx], newmask[idx]
+                logw = np.zeros(n)
+                resampled = True
+
         # ---------------------------------------------------------- commit
         self._xv, self._Pv, self._logw = xv, Pv, logw
         self._m, self._P, self._exists, self._count = m, P, exists, count
@@ -758,6 +791,41 @@ class FastSLAM2:
         self.n_resamples += int(resampled)
         b = int(np.argmax(logw))
         return UpdateResult(associations=assoc[b].copy(), new=newmask[b].copy(), nis=nis[b].copy())
+
+    def _resample_index(self, logw: np.ndarray) -> np.ndarray | None:
+        """Resampling indexes when ``N_eff < resample_threshold * N``, else None."""
+        w, _ = normalize_log_weights(logw)
+        if 1.0 / np.sum(w * w) < self._threshold * w.size:
+            return self._resample(w, self.rng)
+        return None
+
+    @staticmethod
+    def _sample_log_weight(xs, xq, Pq, x0, P0, m, P, Z, R, assoc) -> np.ndarray:
+        """(n,) ``log p(z | xs, m) + log N(xs; x0, P0) - log N(xs; xq, Pq)`` for the sampled
+        poses ``xs`` (n, 3) drawn from the proposal ``N(xq, Pq)`` with the prior ``N(x0, P0)``
+        (Bailey's 2004 ``sample_proposal``: per-observation ``S = Hf Pf Hf^T + R`` at ``xs``).
+        Particles without an associated observation get 0 (``xq = x0``, ``Pq = P0``)."""
+        valid = assoc >= 0
+        n = assoc.shape[0]
+        rows = np.arange(n)[:, None]
+        sl = np.where(valid, assoc, 0)
+        zhat, _, Hf = observation_model(xs[:, None, :], m[rows, sl])
+        v = Z[None] - zhat
+        v[..., 1] = _wrap(v[..., 1])
+        Si, det = _inv2(_quad(Hf, P[rows, sl]) + R[None])
+        ll = -0.5 * np.einsum("...i,...ij,...j->...", v, Si, v) - 0.5 * np.log(det) - _LOG_2PI
+        like = np.where(valid, ll, 0.0).sum(axis=1)
+
+        def log_gauss3(d, C):
+            d = d.copy()
+            d[:, 2] = _wrap(d[:, 2])
+            C = _sym(C) + 1e-12 * np.eye(3)  # a pose covariance may be singular (P0 = 0)
+            _, logdet = np.linalg.slogdet(C)
+            q = np.einsum("ni,ni->n", d, np.linalg.solve(C, d[..., None])[..., 0])
+            return -0.5 * q - 0.5 * logdet
+
+        ratio = log_gauss3(xs - x0, P0) - log_gauss3(xs - xq, Pq)
+        return np.where(valid.any(axis=1), like + ratio, 0.0)
 
     @staticmethod
     def _joint_log_likelihood(xv, Pv, m, P, Z, R, assoc, valid) -> np.ndarray:

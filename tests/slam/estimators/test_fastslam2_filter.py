@@ -226,16 +226,18 @@ def test_resampling_runs_only_when_effective_sample_size_drops_below_75_percent(
     np.testing.assert_allclose(f.weights, np.full(100, 0.01))
 
 
-def test_default_resampling_rule_is_the_thesis_75_percent():
-    """The thesis's and Bailey's rule by default in every association mode (resample when
-    N_eff < 75 of 100); an explicit value wins, and 0 never resamples. The same very
-    unequal weights as above must trigger resampling only where the rule says so."""
-    assert FastSLAM2(n_particles=4, seed=0, association="known")._threshold == 0.75
+def test_default_resampling_rule_is_bailey_75_percent_except_with_labels():
+    """The thesis's and Bailey's rule (resample when N_eff < 75 of 100) by default with
+    maximum-likelihood or auto association; with known association the default never
+    resamples (0.0); an explicit value wins everywhere. The same very unequal weights as
+    above must trigger resampling only where the rule says so."""
     assert FastSLAM2(n_particles=4, seed=0, association="ml")._threshold == 0.75
     assert FastSLAM2(n_particles=4, seed=0, association="auto")._threshold == 0.75
+    assert FastSLAM2(n_particles=4, seed=0, association="known")._threshold == 0.0
+    assert FastSLAM2Config(association="known").resample_threshold == 0.0
     assert (
-        FastSLAM2(n_particles=4, seed=0, association="known", resample_threshold=0.0)._threshold
-        == 0.0
+        FastSLAM2(n_particles=4, seed=0, association="known", resample_threshold=0.75)._threshold
+        == 0.75
     )
     f, lms, x = _loop_filter(n=100, seed=1, resample_threshold=0.0)
     f._xv = np.tile(x, (100, 1))
@@ -301,6 +303,7 @@ def test_zero_range_and_non_finite_inputs_are_rejected_at_the_boundary():
     [
         ({"n_particles": 0}, "n_particles"),
         ({"resample_threshold": 1.5}, "resample_threshold"),
+        ({"weighting": "joint"}, "weighting"),
         ({"reject_gate": -1.0}, "reject_gate"),
         ({"augment_gate": 1.0}, "augment_gate"),
         ({"resampler": "multinomial"}, "resampler"),
@@ -407,6 +410,53 @@ def test_importance_weight_is_the_joint_predictive_density_of_the_scan():
     assert abs((product[1] - product[0]) - (joint[1] - joint[0])) > 1e3 * 1e-6 * abs(
         joint[1] - joint[0]
     )
+
+
+def test_proposal_weighting_is_baileys_2004_sample_weight():
+    """``weighting="proposal"`` (Bailey's 2004 fastslam2): after sampling ``xs`` from the
+    proposal N(xq, Pq), ``log w += log N(z; h(xs, m), Hf Pf Hfᵀ + R) + log N(xs; x0, Pv0)
+    - log N(xs; xq, Pq)``. Checked with scipy.stats.multivariate_normal, finite-difference
+    Jacobians and the proposal recomputed independently as a one-observation EKF in
+    information form (Bailey's sample_proposal), from each particle's sampled pose."""
+    from scipy.stats import multivariate_normal
+
+    lm = np.array([10.0, 3.0])
+    f = FastSLAM2(
+        n_particles=2,
+        rng=np.random.default_rng(0),
+        association="known",
+        resample_threshold=0.0,
+        weighting="proposal",
+    )
+    f.update([RangeBearing(_h(np.zeros(3), lm), R_DEFAULT, label=0)])
+    Q = np.diag([0.3**2, 0.2**2, np.deg2rad(5.0) ** 2])
+    f.predict(Odometry([1.0, 0.0, 0.0], Q))
+    f._xv[1] += np.array([0.4, -0.3, 0.05])
+    x0s, P0s = f._xv.copy(), f._Pv.copy()
+    ms, Ps = f._m[:, 0].copy(), f._P[:, 0].copy()
+    lw0 = f.log_weights
+    z = _h(np.array([1.1, 0.1, 0.02]), lm)
+    f.update([RangeBearing(z, R_DEFAULT, label=0)])
+    xs = f.particle_poses
+    expect = []
+    for p in range(2):
+        Hv = _num_jac(lambda q, p=p: _h(q, ms[p]), x0s[p])
+        Hf = _num_jac(lambda q, p=p: _h(x0s[p], q), ms[p])
+        Sf_inv = np.linalg.inv(Hf @ Ps[p] @ Hf.T + R_DEFAULT)
+        v = z - _h(x0s[p], ms[p])
+        v[1] = wrap_angle(v[1])
+        Pq = np.linalg.inv(Hv.T @ Sf_inv @ Hv + np.linalg.inv(P0s[p]))
+        xq = x0s[p] + Pq @ Hv.T @ Sf_inv @ v
+        Hf_s = _num_jac(lambda q, p=p: _h(xs[p], q), ms[p])
+        vs = z - _h(xs[p], ms[p])
+        vs[1] = wrap_angle(vs[1])
+        like = multivariate_normal(np.zeros(2), Hf_s @ Ps[p] @ Hf_s.T + R_DEFAULT).logpdf(vs)
+        prior = multivariate_normal(x0s[p], P0s[p]).logpdf(xs[p])
+        prop = multivariate_normal(xq, Pq).logpdf(xs[p])
+        expect.append(lw0[p] + like + prior - prop)
+    lw = f.log_weights
+    assert lw[1] - lw[0] == pytest.approx(expect[1] - expect[0], rel=1e-5, abs=1e-6)
+    assert abs(expect[1] - expect[0]) > 1e-2  # not equal weights: the check can fail
 
 
 def _square_loop_then_drift(loop_drift_100m, offset=(4.0, -3.0, 0.02)):

@@ -261,17 +261,17 @@ def _runner_rmse(seeds, params):
     return out
 
 
-def test_dense_loop_known_association_without_resampling_beats_baileys_median():
-    """Dense loop, 2 loops, dt 0.025 s, 100 particles, known association, the runner's seeds
-    0-4 (the CLI's data). Independent expectations: Tim Bailey's MATLAB FastSLAM 2.0 reaches
-    a median landmark RMSE of 3.4 m over 20 seeds (REFERENCE.md), and the same filter with
-    the default resampling rule (Bailey's, N_eff < 75) on the same data does worse
-    (measured here: 4.9 m median on these seeds, 6.25 m over 20) — without resampling
-    (``resample_threshold=0``, log weights) the particles stay the path hypotheses the
-    loop closure chooses among. Its pose covariance stays positive definite (finite NEES
-    in every scan)."""
-    ours = _runner_rmse(range(5), {"association": "known", "resample_threshold": 0.0})
-    bailey = _runner_rmse(range(5), {"association": "known"})
+def test_dense_loop_known_association_default_beats_baileys_median():
+    """Dense loop, 2 loops, dt 0.025 s, 100 particles, known association with the DEFAULT
+    parameters, the runner's seeds 0-4 (the CLI's data). Independent expectations: Tim
+    Bailey's FastSLAM 2.0 (Octave) reaches a median landmark RMSE of 3.39 m over its 15
+    finite runs of 20 (REFERENCE.md), and the same filter with Bailey's resampling rule
+    (N_eff < 75) on the same data does worse (4.9 m median on these seeds, 6.25 m over
+    20) — the known-association default never resamples: the log-weighted particles stay
+    the path hypotheses the loop closure chooses among. Its pose covariance stays positive
+    definite (finite NEES in every scan)."""
+    ours = _runner_rmse(range(5), {"association": "known"})
+    bailey = _runner_rmse(range(5), {"association": "known", "resample_threshold": 0.75})
     med = float(np.median([r.landmark_rmse for r in ours]))
     med_b = float(np.median([r.landmark_rmse for r in bailey]))
     assert med < 3.4, med
@@ -282,13 +282,14 @@ def test_dense_loop_known_association_without_resampling_beats_baileys_median():
 @pytest.mark.slow
 def test_dense_loop_twenty_runs_known_and_ml():
     """The issue's 20-run checks (seeds 0-19, dt 0.025 s, 100 particles), about 1 min:
-    known association without resampling: median landmark RMSE <= 3.4 m (Bailey's median)
+    known association with the default parameters (no resampling): median landmark RMSE
+    <= 3.4 m (Bailey's median)
     with valid weights and finite NEES in every run; maximum-likelihood association
     (default 75 % resampling rule) re-associates at loop
     closure: at most 2 of 20 runs end with more landmarks than the 30 ever seen (measured:
     0; before the loop-closure allowance: all 20, ~29 extra each) and at most 6 with fewer
     (two true landmarks merged by a wide gate; measured: 4)."""
-    known = _runner_rmse(range(20), {"association": "known", "resample_threshold": 0.0})
+    known = _runner_rmse(range(20), {"association": "known"})
     assert float(np.median([r.landmark_rmse for r in known])) <= 3.4
     ml = _runner_rmse(range(20), {})
     extra = [r.n_landmarks - r.n_true_seen for r in ml]
