@@ -239,8 +239,11 @@ def test_compose_pose_equals_ekf_prediction():
 
 
 def test_one_large_submap_equals_plain_aekf_full_covariance(run):
-    """One local map of unlimited size: the joined map is the plain AEKF's full state."""
-    a, b = AEKFSlam(), make_estimator("aekf-submap", max_landmarks=10_000)
+    """One local map of unlimited size: the joined map is the plain AEKF's full state
+    (both with Bailey's reference settings; the plain AEKF's default is the consistent
+    preset)."""
+    a = AEKFSlam(preset="reference")
+    b = make_estimator("aekf-submap", max_landmarks=10_000, preset="reference")
     for i in range(300):
         for f in (a, b):
             f.predict(run.odometry(i))
