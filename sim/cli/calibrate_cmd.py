@@ -11,13 +11,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from sim.atomic import atomic_write
 from sim.cli.realism_io import first_return_for, load_any, parse_pings
 from slam.realism.bottom import first_bottom_return
 from slam.realism.calibration import CalibrationError, Parameter, calibrate
@@ -144,19 +143,6 @@ def preset_toml(args, values, result, meta) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder + rename."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     try:
@@ -205,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
         "loss_before": result.initial_loss,
         "loss_after": result.loss,
     }
-    write_atomic(out, preset_toml(args, result.values, result, meta))
+    atomic_write(out, preset_toml(args, result.values, result, meta).encode())
     if args.save_sim:
         np.save(args.save_sim, np.asarray(simulate(result.values), dtype=np.float32))
     before, after = compare(result.before, target), compare(result.after, target)
