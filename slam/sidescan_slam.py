@@ -14,7 +14,9 @@ with the :data:`~slam.pipeline.REAL_SIDESCAN` settings), fed from a file
    ``heading_sigma_deg_per_sqrt_s`` heading random walk) — a recording's navigation is
    itself an estimate, so this is the dead-reckoning error SLAM is asked to correct.
 3. altitude per ping: the first seabed return (the sonar's own measurement over a flat
-   seabed; :func:`slam.frontend.normalization.seabed_mask`) or the file's ``altitude_m``.
+   seabed: the bottom track, :func:`slam.frontend.bottom_track.track_bottom`, gaps
+   interpolated) or the file's ``altitude_m``. It sets the water-column mask, the
+   first-return edge and the slant-to-ground-range correction of every detection.
 4. each ping becomes a :class:`slam.pipeline.SonarFrame`; windows of the waterfall →
    normalization → segmentation (improved Otsu by default) → regions → range-bearing
    observations, each tied to the ping of its centroid. Normalization defaults to the along-track column median rather than the thesis's MIRA:
@@ -35,7 +37,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from slam.frontend.normalization import seabed_mask
+from slam.frontend.bottom_track import fill_track, track_bottom
 from slam.frontend.sidescan_windows import Detection
 from slam.io.waterfall import Waterfall
 from slam.pipeline import (
@@ -116,9 +118,7 @@ class SidescanSlamResult:
                 for d in self.detections
             ],
             "landmarks_m": self.landmarks.tolist(),
-            "landmark_sigma_m": np.sqrt(
-                np.linalg.eigvalsh(self.landmark_cov).max(axis=1)
-            ).tolist()
+            "landmark_sigma_m": np.sqrt(np.linalg.eigvalsh(self.landmark_cov).max(axis=1)).tolist()
             if len(self.landmarks)
             else [],
             "final_pose_nav": self.nav_poses[-1].tolist(),
@@ -195,25 +195,26 @@ def odometry_between(
     c, s = math.cos(p0[2]), math.sin(p0[2])
     dphi = (p1[2] - p0[2] + math.pi) % (2 * math.pi) - math.pi
     d = max(math.hypot(dx, dy), 0.01)
-    cov = np.diag([(sigma_frac * d) ** 2, (sigma_frac * d) ** 2, heading_sigma_rad_sqrt_s**2 * max(dt, 1e-3)])
+    cov = np.diag(
+        [(sigma_frac * d) ** 2, (sigma_frac * d) ** 2, heading_sigma_rad_sqrt_s**2 * max(dt, 1e-3)]
+    )
     return Odometry(delta=[c * dx + s * dy, -s * dx + c * dy, dphi], cov=cov, t=t)
 
 
 def ping_altitudes(wf: Waterfall, source: str) -> np.ndarray:
-    """(P,) altitude per ping, m: the first seabed return (mean of both sides) or the
-    file's ``altitude_m``."""
+    """(P,) altitude per ping, m: the bottom track's first seabed return (both sides
+    together; pings without a pick interpolated between their neighbours) or the file's
+    ``altitude_m``. Raises ValueError when no ping has a bottom."""
     if source == "nav":
         if "altitude_m" not in wf.nav:
             raise ValueError("altitude='nav' but the recording has no altitude_m navigation")
         return np.asarray(wf.nav["altitude_m"], dtype=np.float64)
-    s = wf.samples_per_side
-    mask = seabed_mask(wf)
-    stbd_first = np.argmax(mask[:, s:], axis=1)
-    port_first = np.argmax(mask[:, :s][:, ::-1], axis=1)
-    return (0.5 * (stbd_first + port_first) + 0.5) * wf.slant_range_m / s
+    return fill_track(track_bottom(wf))
 
 
-def run_sidescan_slam(wf: Waterfall, config: SidescanSlamConfig | None = None) -> SidescanSlamResult:
+def run_sidescan_slam(
+    wf: Waterfall, config: SidescanSlamConfig | None = None
+) -> SidescanSlamResult:
     """Run the front end and SLAM over a recorded waterfall (see the module docstring)."""
     cfg = config or SidescanSlamConfig()
     t_start = time.perf_counter()
@@ -227,7 +228,9 @@ def run_sidescan_slam(wf: Waterfall, config: SidescanSlamConfig | None = None) -
             f"only {keep.size} navigated pings; need at least window_pings/2 = {pipe.window_pings // 2}"
         )
     pipe = replace(
-        pipe, window_pings=min(pipe.window_pings, keep.size), hop_pings=min(pipe.hop_pings, keep.size)
+        pipe,
+        window_pings=min(pipe.window_pings, keep.size),
+        hop_pings=min(pipe.hop_pings, keep.size),
     )
     poses = poses_all[keep]
     t = t_all[keep]
@@ -313,7 +316,9 @@ def plot_sidescan_slam(wf: Waterfall, result: SidescanSlamResult, path) -> None:
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(13, 6))
     img = wf.intensity[result.pings].astype(np.float64)
     db = 10 * np.log10(np.clip(img, np.percentile(img, 1) + 1e-9, None))
-    ax0.imshow(db, cmap="copper", aspect="auto", vmin=np.percentile(db, 2), vmax=np.percentile(db, 99.5))
+    ax0.imshow(
+        db, cmap="copper", aspect="auto", vmin=np.percentile(db, 2), vmax=np.percentile(db, 99.5)
+    )
     s = wf.samples_per_side
     for d in result.detections:
         col = s + d.slant_range / wf.slant_range_m[result.pings[d.ping]] * s
@@ -329,7 +334,9 @@ def plot_sidescan_slam(wf: Waterfall, result: SidescanSlamResult, path) -> None:
     for m, C in zip(result.landmarks, result.landmark_cov):
         w, v = np.linalg.eigh(C)
         ang = math.degrees(math.atan2(v[1, 1], v[0, 1]))
-        ax1.add_patch(Ellipse(m, 4 * math.sqrt(w[1]), 4 * math.sqrt(w[0]), angle=ang, fill=False, ec="r"))
+        ax1.add_patch(
+            Ellipse(m, 4 * math.sqrt(w[1]), 4 * math.sqrt(w[0]), angle=ang, fill=False, ec="r")
+        )
         ax1.plot(*m, "r+", ms=10)
     ax1.plot([], [], "r+", label="landmarks (2σ)")
     ax1.set(title="map", xlabel="x east (m)", ylabel="y north (m)", aspect="equal")

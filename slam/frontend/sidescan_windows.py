@@ -13,7 +13,8 @@ closer than ``merge_radius`` (single linkage on the gap between their footprints
 metres: along-track x ground range). Regions in the nadir band (ground range below
 max(min_ground_range, altitude / 2): the first bottom return) and regions smaller than
 ``min_area_m2`` on the ground (pixel = bin width x along-track spacing; speckle blobs)
-are ignored.
+or longer than ``max_extent_m`` along track or across (a seabed band or patch: its
+centroid is no repeatable point for a point landmark) are ignored.
 
 Each detection is tied to the ping k nearest its centroid (time t_k): the observation
 comes from the front end's side-scan observation model
@@ -121,7 +122,9 @@ class SidescanProcessor:
         min_ground_range: float = 2.0,
         view_bias: float = 0.5,
         min_area_m2: float = 0.0,
-        edge_mask: Callable[[np.ndarray], np.ndarray] | None = None,
+        max_extent_m: float = np.inf,
+        edge_mask: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+        drop_mirrored: bool = False,
     ) -> None:
         if not 1 <= hop <= window:
             raise ValueError(f"hop must be in [1, window={window}], got {hop}")
@@ -139,9 +142,12 @@ class SidescanProcessor:
         self.min_ground_range = float(min_ground_range)
         self.view_bias = float(view_bias)
         self.min_area_m2 = float(min_area_m2)
-        # raw window (W, 2S) -> bool mask of the water column and first-return edge;
-        # a detection centred there is the edge, not an object (recorded data)
+        self.max_extent_m = float(max_extent_m)
+        # (altitudes (W,) m, slant (S,) m) -> (W, 2S) bool mask of the water column and
+        # first-return edge; a detection centred there is the edge, not an object, and
+        # so are detections mirrored across nadir (drop_mirrored; recorded data)
         self.edge_mask = edge_mask
+        self.drop_mirrored = bool(drop_mirrored)
         self.pings: list[PingRecord] = []
         self._next_start = 0  # start ping of the next window
         self._owned_until = 0  # pings < this are owned by processed windows
@@ -165,7 +171,11 @@ class SidescanProcessor:
         W, H = self.window, self.hop
         pings = self.pings[a : a + W]
         img = np.stack([p.intensity for p in pings]).astype(np.float32)
-        edge = self.edge_mask(img) if self.edge_mask is not None else None
+        edge = (
+            self.edge_mask(np.array([p.altitude for p in pings]), pings[0].slant_range)
+            if self.edge_mask is not None
+            else None
+        )
         lab = np.stack(
             [p.labels if p.labels is not None else np.zeros(img.shape[1], np.int32) for p in pings]
         ).astype(np.int32)
@@ -199,14 +209,14 @@ class SidescanProcessor:
         # merge regions of one object (single linkage): same side, gap between their
         # footprints (along-track x ground range, metres) below merge_radius
         groups = self._merge(cand, rate)
+        centres = [_weighted_centre(grp) for grp in groups]
+        mirrored = self._mirrored(centres, S)
         out = []
-        for grp in groups:
+        for grp, (row, col), twin in zip(groups, centres, mirrored):
             w = np.array([g_[4] for g_ in grp], float)
-            row = float(np.average([g_[0] for g_ in grp], weights=w))
-            col = float(np.average([g_[1] for g_ in grp], weights=w))
             k = round(row)
-            if edge is not None and edge[k - a, min(round(col), img.shape[1] - 1)]:
-                continue  # centred on the first-return edge / water column
+            if twin or (edge is not None and edge[k - a, min(round(col), img.shape[1] - 1)]):
+                continue  # centred on the first-return edge / water column, or its mirror
             port = grp[0][2]
             bb = np.array([g_[5] for g_ in grp])
             ext = (float(bb[:, 2].max() - bb[:, 0].min()), float(bb[:, 3].max() - bb[:, 1].min()))
@@ -256,6 +266,19 @@ class SidescanProcessor:
         out.sort(key=lambda d: (d.t, d.side, d.ground_range))
         return out
 
+    def _mirrored(self, centres: list[tuple[float, float]], S: int) -> np.ndarray:
+        """(n,) bool: groups mirrored across nadir (artefacts.mirrored_across_nadir)."""
+        if not self.drop_mirrored or len(centres) < 2:
+            return np.zeros(len(centres), bool)
+        from slam.frontend.segmentation.artefacts import mirrored_across_nadir
+
+        rc = np.array(centres)
+        k = np.round(rc[:, 0]).astype(int)
+        port = rc[:, 1] < S - 0.5
+        sample = np.clip(np.round(np.where(port, S - 1 - rc[:, 1], rc[:, 1] - S)), 0, S - 1)
+        slant = np.array([self.pings[i].slant_range[int(j)] for i, j in zip(k, sample)])
+        return mirrored_across_nadir(k, port, slant)
+
     def _candidates(self, a, S, lab, seg_labels, regions, own_lo, own_hi, overlay, rate):
         """Regions of the owned rows that may be detections: size, ground-area and nadir
         tests; per region [row, col, port, ground range, area, bbox, object id, object
@@ -294,6 +317,9 @@ class SidescanProcessor:
             s1 = (S - 1 - c0) if port else (c1 - 1 - S)
             sl = p.slant_range[np.clip([s0, s1], 0, S - 1)]
             gi = np.sqrt(np.clip(sl**2 - p.altitude**2, 0.0, None))
+            along = (r1 - r0) * max(p.speed, 0.05) / rate
+            if max(along, gi[1] - gi[0]) > self.max_extent_m:  # no repeatable point
+                continue
             cand.append(
                 [
                     a + r,
@@ -340,6 +366,15 @@ class SidescanProcessor:
             return 10.0
         dt = (self.pings[-1].t - self.pings[0].t) / (n - 1)
         return 1.0 / dt if dt > 0 else 10.0
+
+
+def _weighted_centre(group: list) -> tuple[float, float]:
+    """(row, col) of a merged group: its regions' centroids weighted by their areas."""
+    w = np.array([g_[4] for g_ in group], float)
+    return (
+        float(np.average([g_[0] for g_ in group], weights=w)),
+        float(np.average([g_[1] for g_ in group], weights=w)),
+    )
 
 
 def _placing_pose(p: PingRecord) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 
 from slam.estimators import make_estimator
 from slam.frontend.polar import FLS_FRONTEND, MSIS_FRONTEND, PolarFrontend, PolarFrontendConfig
-from slam.frontend.segmentation.artefacts import first_return_edge_mask_image
+from slam.frontend.segmentation.artefacts import first_return_edge_from_altitude
 from slam.frontend.segmentation.methods import segment
 from slam.frontend.sidescan_windows import SidescanProcessor, make_sss_prepare
 from slam.pipeline.frame import SonarGeometry
@@ -37,15 +37,18 @@ class PipelineConfig:
     method, preset: segmentation (slam.frontend.segmentation; method "none" = no front
     end). window_pings, hop_pings: side-scan waterfall windows. merge_radius_m: regions
     of one object closer than this are merged (the scenario's ``association_gate_m``).
-    min_area_m2: side-scan regions smaller on the ground are speckle. min_ground_range_m:
+    min_area_m2: side-scan regions smaller on the ground are speckle. max_extent_m:
+    side-scan regions longer (along track or across, m) are seabed patches, not point
+    landmarks (a single region, before merging fragments). min_ground_range_m:
     side-scan nadir band. looks: side-scan incoherent average (px). normalization: "mira"
     or "column-median". min_speed_mps: floor of the along-track speed for the side-scan
     pixel size. fls, msis: the polar front end's settings. timing: "lagged" | "naive".
     pose0_var_xy_m2, pose0_sigma_yaw_deg: the initial pose's variance in x and y and
     1-sigma in yaw. drop_first_return_edge: side-scan detections centred on the water
-    column or the first-bottom-return edge
-    (slam.frontend.segmentation.artefacts.first_return_edge_mask) are dropped — the
-    symmetric bright rim of the first return on recorded data is not an object.
+    column or the first-bottom-return edge (the frames' altitudes plus a margin,
+    slam.frontend.segmentation.artefacts.first_return_edge_from_altitude) or mirrored
+    across nadir (artefacts.mirrored_across_nadir) are dropped — the symmetric bright rim
+    of the first return on recorded data is not an object.
     """
 
     method: str = "improved-otsu"
@@ -54,6 +57,7 @@ class PipelineConfig:
     hop_pings: int = 100
     merge_radius_m: float = 3.0
     min_area_m2: float = 0.0
+    max_extent_m: float = math.inf
     min_ground_range_m: float = 2.0
     looks: int = 3
     normalization: str = "mira"
@@ -93,6 +97,10 @@ class PipelineConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"PipelineConfig.{name} = {v!r}: must be finite and >= 0")
+        if not self.max_extent_m > 0:
+            raise ValueError(
+                f"PipelineConfig.max_extent_m = {self.max_extent_m!r}: must be > 0 (m)"
+            )
 
     def initial_covariance(self) -> np.ndarray:
         """(3, 3) covariance of the initial pose [x, y, yaw]."""
@@ -102,12 +110,14 @@ class PipelineConfig:
 
 #: recorded side-scan data (undersea sss-slam): along-track column-median normalization
 #: (MIRA's two exponentials do not follow the bright band beyond the first return of the
-#: Scotsman recording), a ground-area speckle filter, the navigation's own speed, a
-#: start pose known to 1 cm
+#: Scotsman recording), a ground-area speckle filter, single regions longer than twice the
+#: association gate (2 × 3 m) dropped (their centroid moves with the view: not a point
+#: landmark), the navigation's own speed, a start pose known to 1 cm
 REAL_SIDESCAN = replace(
     PipelineConfig(),
     normalization="column-median",
     min_area_m2=0.15,
+    max_extent_m=6.0,
     min_speed_mps=0.0,
     pose0_var_xy_m2=1e-4,
     drop_first_return_edge=True,
@@ -149,8 +159,10 @@ def make_frontend(
             config.hop_pings,
             merge_radius=config.merge_radius_m,
             min_area_m2=config.min_area_m2,
+            max_extent_m=config.max_extent_m,
             min_ground_range=config.min_ground_range_m,
-            edge_mask=first_return_edge_mask_image if config.drop_first_return_edge else None,
+            edge_mask=first_return_edge_from_altitude if config.drop_first_return_edge else None,
+            drop_mirrored=config.drop_first_return_edge,
             along_track_beamwidth_deg=g.along_track_beamwidth_deg,
             class_of=class_of,
             prepare=make_sss_prepare(

@@ -143,3 +143,47 @@ def test_cli_on_the_real_scotsman_recording(shared_data, tmp_path, capsys):
         pings.setdefault(d["ping"], set()).add(d["side"])
     assert not [k for k, sides in pings.items() if len(sides) == 2], summary["detections"]
     assert 1 <= len(summary["landmarks_m"]) <= 2, summary["landmarks_m"]
+
+
+def test_first_return_altitude_is_the_bottom_track_of_a_known_altitude():
+    """The synthetic recording's seabed starts at slant range H = 5 m on every ping: the
+    pipeline's altitude (water-column mask, slant-to-ground correction) is the bottom
+    track's, within one sample of H."""
+    from slam.frontend.bottom_track import fill_track, track_bottom
+    from slam.sidescan_slam import ping_altitudes
+
+    wf = synthetic_recording(np.random.default_rng(5), pings=120)
+    alt = ping_altitudes(wf, "first_return")
+    np.testing.assert_array_equal(alt, fill_track(track_bottom(wf)))
+    assert np.all(np.abs(alt - H) <= R_MAX / S)
+
+
+def test_a_seabed_band_longer_than_max_extent_is_no_landmark():
+    """A bright band 8 m along track (pings 60-140 at 1 m/s, 10 Hz) on port: a region
+    longer than REAL_SIDESCAN's 6 m is no point landmark; with no limit it is detected."""
+    wf = synthetic_recording(np.random.default_rng(6))
+    img = wf.intensity.copy()
+    slant = (np.arange(S) + 0.5) * R_MAX / S
+    g = np.sqrt(np.clip(slant**2 - H**2, 0, None))
+    cols = S - 1 - np.flatnonzero((g >= 8.0) & (g < 9.0))
+    img[60:140, cols.min() : cols.max() + 1] *= 8.0
+    band = wf.with_intensity(img)
+    port = lambda res: [d for d in res.detections if d.side == "port"]  # noqa: E731
+    assert not port(run_sidescan_slam(band, SidescanSlamConfig()))
+    unlimited = SidescanSlamConfig(pipeline=replace(REAL_SIDESCAN, max_extent_m=math.inf))
+    assert port(run_sidescan_slam(band, unlimited))
+    with pytest.raises(ValueError, match="max_extent_m"):
+        replace(REAL_SIDESCAN, max_extent_m=0.0)
+
+
+def test_real_scotsman_altitude_is_the_bottom_track_and_follows_the_altimeter(shared_data):
+    """Real XTF: the pipeline's altitude is the bottom track; the AUV's own altimeter
+    (XTF SensorPrimaryAltitude, a different sensor) is an independent reference."""
+    from slam.io.sidescan import read_sidescan
+    from slam.sidescan_slam import ping_altitudes
+
+    rec = read_sidescan(shared_data / "xtf" / "scotsman-iver2.xtf")
+    alt = ping_altitudes(rec.waterfall, "first_return")
+    ok = np.isfinite(rec.nav.altitude_m)
+    assert np.all(np.isfinite(alt)) and ok.sum() >= 450
+    assert np.corrcoef(alt[ok], rec.nav.altitude_m[ok])[0, 1] > 0.98

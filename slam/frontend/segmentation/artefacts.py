@@ -19,12 +19,14 @@ first-bottom-return edge of a side-scan waterfall.
   near-zero pixels (<= ``level``) of at least ``min_area_px`` pixels. A detection touching
   one is an edge artefact (the bright rim of the first return, or speckle against black)
   rather than an object on the seabed.
-* **First-return edge of a waterfall** (:func:`first_return_edge_mask`): per ping and per
-  side, the first bottom return (the water-column detection of
-  :func:`slam.frontend.normalization.seabed_mask`, smoothed over pings); everything from
-  nadir to it plus a margin is the water column and its edge. The pipeline drops
-  detections whose centroid falls inside (:func:`drop_first_return_edge`; the Scotsman
-  XTF's symmetric "landmark" at ping 442 is this edge).
+* **First-return edge of a waterfall** (:func:`first_return_edge_mask`,
+  :func:`first_return_edge_from_altitude`): per ping the first bottom return (the bottom
+  track, :mod:`slam.frontend.bottom_track`); everything from nadir to it plus a margin is
+  the water column and its edge. The seabed below the sonar returns to both sides at
+  once, so a detection with a mirror image on the other side at the same slant range
+  (:func:`mirrored_across_nadir`) is that rim too. The pipeline drops detections whose
+  centroid falls inside the edge or that are mirrored (:func:`drop_first_return_edge`;
+  the Scotsman XTF's symmetric "landmark" at ping 442 is this rim).
 
 All masks are ``(H, W)`` bool arrays in image pixels.
 """
@@ -35,9 +37,8 @@ from collections.abc import Sequence
 
 import cv2
 import numpy as np
-from scipy.ndimage import median_filter
 
-from slam.frontend.normalization import seabed_mask
+from slam.frontend.bottom_track import BottomTrack, fill_track, track_bottom
 from slam.io.waterfall import Waterfall
 
 from .image import as_gray8
@@ -46,9 +47,11 @@ from .regions import Region, cc_stats
 __all__ = [
     "annotation_mask",
     "drop_first_return_edge",
+    "first_return_edge_from_altitude",
     "first_return_edge_mask",
     "first_return_samples",
     "mask_annotations",
+    "mirrored_across_nadir",
     "no_echo_mask",
     "regions_outside",
 ]
@@ -163,91 +166,121 @@ def regions_outside(
     return tuple(r for r in regions if not hit[r.label])
 
 
-def first_return_samples(
-    waterfall: Waterfall, *, smooth_pings: int = 5, smooth: int = 15, fraction: float = 0.25
+def first_return_samples(waterfall: Waterfall, track: BottomTrack | None = None) -> np.ndarray:
+    """``(pings,)`` first-bottom-return sample index counted from nadir (the same on both
+    sides): the bottom track (:func:`slam.frontend.bottom_track.track_bottom`, computed
+    when ``track`` is None), pings without a pick interpolated between their neighbours
+    (:func:`slam.frontend.bottom_track.fill_track`). Raises ValueError when the waterfall
+    has no slant range or no ping has a bottom."""
+    bt = track_bottom(waterfall) if track is None else track
+    spacing = waterfall.sample_spacing_m()
+    return fill_track(bt) / spacing
+
+
+def first_return_edge_from_altitude(
+    altitude_m: np.ndarray,
+    slant_m: np.ndarray,
+    *,
+    margin_fraction: float = 0.3,
+    min_margin_samples: int = 8,
 ) -> np.ndarray:
-    """``(pings, 2)`` first-bottom-return sample index counted from nadir, port and
-    starboard: :func:`slam.frontend.normalization.seabed_mask` per ping (leading
-    transmit/saturated samples skipped; ``smooth`` and ``fraction`` are its parameters),
-    then a running median over ``smooth_pings`` pings (a single noisy ping does not move
-    the edge)."""
-    if int(smooth_pings) != smooth_pings or smooth_pings < 1:
-        raise ValueError(f"smooth_pings={smooth_pings!r}: must be an integer >= 1")
-    s = waterfall.samples_per_side
-    water = ~seabed_mask(waterfall, smooth=smooth, fraction=fraction)
-    first = np.column_stack([water[:, :s].sum(axis=1), water[:, s:].sum(axis=1)])
-    if smooth_pings > 1 and first.shape[0] >= smooth_pings:
-        first = median_filter(first, size=(int(smooth_pings), 1), mode="nearest")
-    return first
+    """Water column and first-bottom-return edge, ``(pings, 2 × samples)`` bool (port on
+    the left, nadir in the middle): True from nadir out to the first return ``r`` (the
+    samples whose slant range ``slant_m`` (S,) m, near to far, is below the ping's
+    altitude ``altitude_m`` (P,) m) plus ``max(min_margin_samples, margin_fraction · r)``
+    samples — the bright rim of the first return is as wide as the beam's footprint at
+    nadir, which grows with the altitude, hence a margin proportional to ``r``. Objects
+    standing tall (a wreck's superstructure) can return before the seabed does and their
+    highlight sits close to the rim, so keep ``margin_fraction`` small."""
+    if not 0.0 <= margin_fraction <= 1.0:
+        raise ValueError(f"margin_fraction={margin_fraction!r}: must be in [0, 1]")
+    if int(min_margin_samples) != min_margin_samples or min_margin_samples < 0:
+        raise ValueError(f"min_margin_samples={min_margin_samples!r}: must be an integer >= 0")
+    alt = np.asarray(altitude_m, dtype=np.float64).reshape(-1)
+    slant = np.asarray(slant_m, dtype=np.float64).reshape(-1)
+    first = np.searchsorted(slant, np.where(np.isfinite(alt), alt, 0.0))
+    edge = first + np.maximum(min_margin_samples, np.ceil(margin_fraction * first)).astype(int)
+    near = np.arange(slant.size)[None, :] < edge[:, None]
+    return np.hstack([near[:, ::-1], near])
 
 
 def first_return_edge_mask(
     waterfall: Waterfall,
     *,
+    track: BottomTrack | None = None,
     margin_fraction: float = 0.3,
     min_margin_samples: int = 8,
-    smooth_pings: int = 5,
 ) -> np.ndarray:
-    """Water column and first-bottom-return edge of a side-scan waterfall, ``(pings,
-    2 × samples)`` bool (port on the left, nadir in the middle): True from nadir out to
-    the first return ``r`` (:func:`first_return_samples`) plus a margin of
-    ``max(min_margin_samples, margin_fraction · r)`` samples — the bright rim of the first
-    return is as wide as the beam's footprint at nadir, which grows with the altitude,
-    hence a margin proportional to ``r``.
+    """:func:`first_return_edge_from_altitude` of a whole waterfall, the first return
+    from its bottom track (:func:`first_return_samples`), ``(pings, 2 × samples)`` bool.
 
     A detection whose centroid lies inside is the edge, not an object on the seabed
-    (:func:`drop_first_return_edge`). Objects standing tall (a wreck's superstructure)
-    can return before the seabed does; they are masked too, so keep ``margin_fraction``
-    small.
-    """
-    if not 0.0 <= margin_fraction <= 1.0:
-        raise ValueError(f"margin_fraction={margin_fraction!r}: must be in [0, 1]")
-    if int(min_margin_samples) != min_margin_samples or min_margin_samples < 0:
-        raise ValueError(f"min_margin_samples={min_margin_samples!r}: must be an integer >= 0")
+    (:func:`drop_first_return_edge`)."""
     s = waterfall.samples_per_side
-    first = first_return_samples(waterfall, smooth_pings=smooth_pings)
-    edge = first + np.maximum(min_margin_samples, np.ceil(margin_fraction * first)).astype(int)
-    from_nadir = np.arange(s)[None, :]
-    port = from_nadir < edge[:, :1]
-    stbd = from_nadir < edge[:, 1:]
-    return np.hstack([port[:, ::-1], stbd])
+    first = first_return_samples(waterfall, track)
+    return first_return_edge_from_altitude(
+        first,
+        np.arange(s) + 0.5,
+        margin_fraction=margin_fraction,
+        min_margin_samples=min_margin_samples,
+    )
 
 
-def first_return_edge_mask_image(intensity: np.ndarray, **kwargs) -> np.ndarray:
-    """:func:`first_return_edge_mask` of a bare ``(pings, 2 × samples)`` window (port
-    on the left), as the pipeline's side-scan windows hold it; ``kwargs`` passed on."""
-    img = np.asarray(intensity, dtype=np.float32)
-    if img.ndim != 2 or img.shape[1] % 2:
-        raise ValueError(f"intensity shape {img.shape}: need (pings, 2 × samples)")
-    p = img.shape[0]
-    nan = np.full(p, np.nan)
-    wf = Waterfall(img, img.shape[1] // 2, np.arange(p, dtype=np.float64), np.ones(p), nan, nan)
-    return first_return_edge_mask(wf, **kwargs)
+def mirrored_across_nadir(
+    ping: np.ndarray,
+    side_port: np.ndarray,
+    slant_m: np.ndarray,
+    *,
+    max_ping_gap: int = 3,
+    rel_tol: float = 0.1,
+    abs_tol_m: float = 0.1,
+) -> np.ndarray:
+    """``(n,)`` bool: detections with a partner on the other side within ``max_ping_gap``
+    pings whose slant range agrees within ``max(abs_tol_m, rel_tol × range)`` m. The
+    seabed below the sonar returns to both sides at once (the first-return rim, the
+    surface return and their multiples are mirror images across nadir); an object on the
+    seabed is seen on one side only. Inputs are ``(n,)`` arrays: ping index, True for
+    port, slant range (m)."""
+    k = np.asarray(ping, dtype=np.float64).reshape(-1)
+    port = np.asarray(side_port, dtype=bool).reshape(-1)
+    r = np.asarray(slant_m, dtype=np.float64).reshape(-1)
+    if not k.size == port.size == r.size:
+        raise ValueError(f"ping/side/slant sizes {k.size}/{port.size}/{r.size}: must agree")
+    other = port[:, None] != port[None, :]
+    near = np.abs(k[:, None] - k[None, :]) <= max_ping_gap
+    tol = np.maximum(abs_tol_m, rel_tol * np.maximum(r[:, None], r[None, :]))
+    same_range = np.abs(r[:, None] - r[None, :]) <= tol
+    return (other & near & same_range).any(axis=1)
 
 
 def drop_first_return_edge(
     detections: Sequence, waterfall: Waterfall, ping_index: np.ndarray | None = None, **kwargs
 ) -> list:
     """The detections (objects with ``ping``, ``side`` = "port"/"starboard" and
-    ``slant_range`` in m) whose centroid is not on the first-return edge of ``waterfall``
-    (:func:`first_return_edge_mask`, ``kwargs`` passed on). ``ping_index[d.ping]`` is the
-    waterfall row of a detection (default: ``d.ping`` itself)."""
+    ``slant_range`` in m) that are neither on the first-return edge of ``waterfall``
+    (:func:`first_return_edge_mask`, ``kwargs`` passed on) nor mirrored across nadir
+    (:func:`mirrored_across_nadir`). ``ping_index[d.ping]`` is the waterfall row of a
+    detection (default: ``d.ping`` itself)."""
     dets = list(detections)
     if not dets:
         return dets
-    mask = first_return_edge_mask(waterfall, **kwargs)
-    s = waterfall.samples_per_side
-    rows = np.arange(waterfall.n_pings) if ping_index is None else np.asarray(ping_index)
-    kept = []
     for d in dets:
         if d.side not in ("port", "starboard"):
             raise ValueError(f"detection side={d.side!r}: need 'port' or 'starboard'")
-        k = int(rows[d.ping])
-        rng = float(waterfall.slant_range_m[k])
-        if not np.isfinite(rng) or rng <= 0:
-            raise ValueError(f"waterfall.slant_range_m[{k}]={rng!r}: need a range > 0 m")
-        sample = min(int(d.slant_range / rng * s), s - 1)
-        col = s - 1 - sample if d.side == "port" else s + sample
-        if not mask[k, col]:
-            kept.append(d)
-    return kept
+    mask = first_return_edge_mask(waterfall, **kwargs)
+    s = waterfall.samples_per_side
+    rows = np.arange(waterfall.n_pings) if ping_index is None else np.asarray(ping_index)
+    k = np.array([int(rows[d.ping]) for d in dets])
+    port = np.array([d.side == "port" for d in dets])
+    slant = np.array([float(d.slant_range) for d in dets])
+    rng = np.asarray(waterfall.slant_range_m, dtype=np.float64)[k]
+    bad = ~(np.isfinite(rng) & (rng > 0))
+    if bad.any():
+        i = int(k[np.argmax(bad)])
+        raise ValueError(
+            f"waterfall.slant_range_m[{i}]={waterfall.slant_range_m[i]!r}: need a range > 0 m"
+        )
+    sample = np.minimum((slant / rng * s).astype(int), s - 1)
+    col = np.where(port, s - 1 - sample, s + sample)
+    drop = mask[k, col] | mirrored_across_nadir(k, port, slant)
+    return [d for d, x in zip(dets, drop) if not x]

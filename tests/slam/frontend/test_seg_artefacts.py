@@ -141,3 +141,30 @@ def test_scotsman_first_return_edge(shared_data):
     water = np.median(stbd[:, 10:60])
     past = np.median(stbd[~inside])
     assert past > 3.0 * water
+
+
+def test_first_return_edge_from_altitude_by_hand():
+    """Slant 0.1 m per sample; altitude 1.0 m -> the first 10 samples (centres 0.05..0.95 m)
+    are water, plus max(8, ceil(0.3 * 10) = 3) = 8 samples of margin: 18 per side."""
+    from slam.frontend.segmentation.artefacts import first_return_edge_from_altitude
+
+    slant = (np.arange(50) + 0.5) * 0.1
+    m = first_return_edge_from_altitude(np.array([1.0, 3.0]), slant)
+    assert m.shape == (2, 100)
+    assert m[0, 50:].sum() == 18 and m[0, 50:68].all() and m[0, :50].sum() == 18
+    assert m[1, 50:].sum() == 30 + 9  # 30 water samples + ceil(0.3 * 30)
+    assert np.array_equal(m[:, :50], m[:, 50:][:, ::-1])
+    with pytest.raises(ValueError, match="margin_fraction"):
+        first_return_edge_from_altitude(np.ones(2), slant, margin_fraction=2.0)
+
+
+def test_mirrored_across_nadir_pairs_only_opposite_sides_at_one_range():
+    from slam.frontend.segmentation.artefacts import mirrored_across_nadir
+
+    ping = np.array([10, 11, 10, 50, 50, 80])
+    port = np.array([True, False, False, True, True, False])
+    slant = np.array([4.0, 4.2, 9.0, 6.0, 6.0, 6.0])
+    # 0/1: opposite sides, 1 ping apart, 5 % apart; 3/4 same side; 5 alone (30 pings away)
+    assert mirrored_across_nadir(ping, port, slant).tolist() == [True, True, False, False, False, False]
+    with pytest.raises(ValueError, match="sizes"):
+        mirrored_across_nadir(ping, port, slant[:2])
