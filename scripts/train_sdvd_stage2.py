@@ -3,7 +3,7 @@ merge gap, probability threshold and count on the TUNE half of the SDVD tiles on
 
 For each merge gap of the grid, every tune tile runs stages 1–4 of the detector
 (annotations masked, improved Otsu, no-echo suppression, fragment merging) and the area
-filter; each region gets its seven features and the label "centroid inside the effigy
+filter; each region gets its eight features and the label "centroid inside the effigy
 mask"; a logistic model is fitted (``fit_region_classifier``). Then every (threshold,
 count) of the grid is scored on the tune half; the selection rule, fixed before looking
 at the test half: highest effigy hit rate among the settings with PPV (one true positive
@@ -41,7 +41,7 @@ COUNTS = (1, 2)
 
 
 def tune_regions(tiles, gap: int):
-    """Per tune tile: (positive, features (n, 7), inside-mask flags (n,))."""
+    """Per tune tile: (positive, features (n, 8), inside-mask flags (n,))."""
     cfg = get_detector("sdvd-trusted").with_(merge_gap_px=gap, classifier=None, max_count=0)
     out = []
     for t in tiles:

@@ -8,7 +8,7 @@ Stages of :func:`detect` (each switchable in :class:`DetectorConfig`):
 3. regions touching a no-echo area dropped (:func:`.artefacts.no_echo_mask`);
 4. fragments within ``merge_gap_px`` merged into one region (:mod:`.fragments`);
 5. geometry (``max_area_px``), local contrast (``min_contrast_db``) and the second stage
-   (:class:`RegionClassifier`, a logistic model on seven region features, keeps regions
+   (:class:`RegionClassifier`, a logistic model on eight region features, keeps regions
    with probability >= its ``threshold``);
 6. at most ``max_count`` regions per image, the most probable (or largest) first.
 
@@ -58,19 +58,22 @@ FEATURES: tuple[str, ...] = (
     "log_mean_over_seabed",
     "extent",
     "log_seabed_level",
+    "contrast_below_best_db",
 )
 
 
 def region_features(
     gray8: np.ndarray, labels: np.ndarray, regions: tuple[Region, ...]
 ) -> np.ndarray:
-    """``(len(regions), 7)`` features (:data:`FEATURES`) of the regions of ``labels``.
+    """``(len(regions), 8)`` features (:data:`FEATURES`) of the regions of ``labels``.
 
     log area (px), log of the major/minor axis ratio (capped at 50), local contrast
     against a 7 px ring (dB), fraction of dark pixels in the 40 px strip behind the region
     on either side (acoustic shadow), log of the region's mean grey level over the seabed
     level (median non-zero grey level of the image, +1 each), area / bounding-box area,
-    log of (seabed level + 1).
+    log of (seabed level + 1), and the region's local contrast minus the highest one
+    among ``regions`` (dB, <= 0: a target stands out of its own tile's candidates even
+    where the whole tile is dim or display-saturated).
     """
     g = as_gray8(gray8)
     if not regions:
@@ -87,15 +90,17 @@ def region_features(
     area = np.array([r.area_px for r in regions], dtype=np.float64)
     elong = np.array([min(r.elongation, 50.0) for r in regions])
     extent = np.array([r.extent for r in regions])
+    c = contrast[lab]
     return np.column_stack(
         [
             np.log(area),
             np.log(elong),
-            contrast[lab],
+            c,
             shadow[lab],
             np.log((mean[lab] + 1.0) / (seabed + 1.0)),
             extent,
             np.full(len(regions), math.log(seabed + 1.0)),
+            c - c.max(),
         ]
     )
 
@@ -135,7 +140,7 @@ def fit_region_classifier(
 ) -> RegionClassifier:
     """Fit the logistic second stage by L2-penalized maximum likelihood (penalty ``l2`` on
     the weights of the standardized features, not on the bias; L-BFGS from zero, so the
-    fit is deterministic). ``features``: ``(n, 7)`` rows of :func:`region_features`;
+    fit is deterministic). ``features``: ``(n, 8)`` rows of :func:`region_features`;
     ``is_object``: ``(n,)`` bool labels."""
     x = np.asarray(features, dtype=np.float64)
     y = np.asarray(is_object, dtype=np.float64).ravel()
@@ -170,10 +175,10 @@ def fit_region_classifier(
 #: Second stage trained on the tune half of the SDVD tiles (improved Otsu regions after
 #: stages 1–4 of ``"sdvd-trusted"``) by ``scripts/train_sdvd_stage2.py``.
 SDVD_STAGE2 = RegionClassifier(
-    mean=(4.513293, 0.632526, 1.86834, 0.251753, 0.591564, 0.656232, 4.484185),
-    scale=(0.853353, 0.467223, 1.323338, 0.182463, 0.393202, 0.170458, 0.469882),
-    weights=(1.040176, -0.915675, 1.639765, -0.603978, -0.409389, -0.181854, -0.936288),
-    bias=-3.276740,
+    mean=(4.513293, 0.632526, 1.86834, 0.251753, 0.591564, 0.656232, 4.484185, -1.132743),
+    scale=(0.853353, 0.467223, 1.323338, 0.182463, 0.393202, 0.170458, 0.469882, 1.036417),
+    weights=(0.897351, -0.737721, 1.187065, -0.599873, -0.383125, -0.088248, -1.047956, 1.255358),
+    bias=-3.502066,
     threshold=0.15,
 )
 

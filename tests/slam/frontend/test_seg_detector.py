@@ -72,7 +72,7 @@ def test_logistic_fit_recovers_known_model():
     rng = np.random.default_rng(7)
     n = 20000
     x = rng.normal(size=(n, len(FEATURES))) * 2.0 + 1.0
-    w_true = np.array([1.0, -0.5, 0.8, 0.0, 0.3, -1.2, 0.5])
+    w_true = np.array([1.0, -0.5, 0.8, 0.0, 0.3, -1.2, 0.5, 0.6])
     b_true = -0.7
     z = (x - 1.0) / 2.0
     p = 1.0 / (1.0 + np.exp(-(z @ w_true + b_true)))
@@ -85,9 +85,9 @@ def test_logistic_fit_recovers_known_model():
 
 def test_classifier_probability_by_hand():
     clf = RegionClassifier(
-        mean=(1.0,) * 7, scale=(2.0,) * 7, weights=(1, 0, 0, 0, 0, 0, -1), bias=0.5
+        mean=(1.0,) * 8, scale=(2.0,) * 8, weights=(1, 0, 0, 0, 0, 0, -1, 0), bias=0.5
     )
-    x = np.array([[5.0, 0, 0, 0, 0, 0, 3.0]])
+    x = np.array([[5.0, 0, 0, 0, 0, 0, 3.0, 9.0]])
     assert clf.probability(x)[0] == pytest.approx(1 / (1 + math.exp(-(2.0 - 1.0 + 0.5))))
 
 
@@ -97,11 +97,11 @@ def test_bad_config_names_the_field():
     with pytest.raises(ValueError, match="method"):
         DetectorConfig(method="magic")
     with pytest.raises(ValueError, match="threshold"):
-        RegionClassifier(mean=(0,) * 7, scale=(1,) * 7, weights=(0,) * 7, bias=0, threshold=2)
+        RegionClassifier(mean=(0,) * 8, scale=(1,) * 8, weights=(0,) * 8, bias=0, threshold=2)
     with pytest.raises(ValueError, match="detector='nope'"):
         get_detector("nope")
     with pytest.raises(ValueError, match="is_object"):
-        fit_region_classifier(np.zeros((4, 7)), np.zeros(4, bool))
+        fit_region_classifier(np.zeros((4, 8)), np.zeros(4, bool))
 
 
 def test_sdvd_trusted_on_held_out_half(shared_data):
@@ -115,3 +115,23 @@ def test_sdvd_trusted_on_held_out_half(shared_data):
     assert ev.detections_per_negative <= 0.7
     assert ev.hit_rate >= 0.75
     assert SDVD_STAGE2.threshold == get_detector("sdvd-trusted").classifier.threshold
+
+
+def test_contrast_below_best_is_each_regions_contrast_minus_the_tiles_best():
+    """Two squares on a flat seabed (level 50) at 150 and 100: their ring contrasts are
+    10·log10(150/50) and 10·log10(100/50) dB; the last feature is 0 for the brighter and
+    −10·log10(1.5) dB for the dimmer."""
+    from slam.frontend.segmentation.detector import region_features
+    from slam.frontend.segmentation.fragments import regions_from_labels
+
+    img = np.full((80, 80), 50, np.uint8)
+    img[10:20, 10:20] = 150
+    img[50:60, 50:60] = 100
+    labels = np.zeros(img.shape, np.int32)
+    labels[10:20, 10:20] = 1
+    labels[50:60, 50:60] = 2
+    f = region_features(img, labels, regions_from_labels(labels))
+    assert f.shape == (2, len(FEATURES)) and FEATURES[-1] == "contrast_below_best_db"
+    assert f[0, -1] == pytest.approx(0.0)
+    assert f[1, -1] == pytest.approx(-10 * math.log10(1.5), abs=0.2)
+    assert f[1, -1] == pytest.approx(f[1, 2] - f[0, 2])
