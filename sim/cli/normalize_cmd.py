@@ -73,7 +73,8 @@ def display_uint8(image):
 
 def normalize_one(path: str, args: argparse.Namespace, out_png, compare_png) -> dict:
     """Normalize one file, write its PNGs; returns its report (ValueError on bad input)."""
-    from slam.frontend.normalization import dcp_normalize, mira_normalize, seabed_mask
+    from slam.frontend.bottom_track import seabed_region
+    from slam.frontend.normalization import dcp_normalize, mira_normalize
     from slam.frontend.quality import siqem
 
     wf = load_waterfall(path)
@@ -92,7 +93,7 @@ def normalize_one(path: str, args: argparse.Namespace, out_png, compare_png) -> 
         out = wf.intensity
     elapsed = time.perf_counter() - t0
     patch = (args.patch, args.patch)
-    mask = seabed_mask(wf)
+    mask = seabed_region(wf)  # bottom track on recordings, threshold rule on images
     report = {
         "file": str(path),
         "method": args.method,

@@ -164,6 +164,20 @@ def water_column_mask(wf: Waterfall, track: BottomTrack) -> np.ndarray:
     return np.concatenate([near[:, ::-1], near], axis=1)
 
 
+def seabed_region(wf: Waterfall) -> np.ndarray:
+    """(P, 2S) bool, True on the seabed (from each ping's first return outward, both
+    sides): the complement of :func:`water_column_mask` of the bottom track when the
+    waterfall has a slant range; a bare image (no range metadata) falls back to
+    :func:`slam.frontend.normalization.seabed_mask` (a threshold on each row's 90th
+    percentile)."""
+    spacing = wf.sample_spacing_m()
+    if np.isfinite(spacing).any() and float(np.nanmedian(spacing)) > 0:
+        return ~water_column_mask(wf, track_bottom(wf))
+    from slam.frontend.normalization import seabed_mask
+
+    return seabed_mask(wf)
+
+
 def fill_track(track: BottomTrack) -> np.ndarray:
     """(P,) altitude with the gaps linearly interpolated between the nearest picks (ends
     held); raises ValueError when no ping has a pick."""

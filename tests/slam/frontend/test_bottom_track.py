@@ -111,3 +111,21 @@ def test_edge_score_equals_the_direct_window_means(rng):
         ref[:, k] = x[:, k : k + w].mean(axis=1) - x[:, k - w : k].mean(axis=1)
     np.testing.assert_allclose(_edge_score(x, w), ref, atol=1e-12)
     assert not _edge_score(x[:, :7], w).any()  # rows shorter than two windows: no edge
+
+
+def test_seabed_region_is_past_the_track_and_falls_back_on_images(rng):
+    """A recording: the seabed starts at the bottom track's pick on both sides. A bare
+    image (no slant range): the threshold rule of normalization.seabed_mask."""
+    from slam.frontend.bottom_track import seabed_region
+    from slam.frontend.normalization import seabed_mask
+    from slam.io.waterfall import waterfall_from_image
+
+    wf, alt = _synthetic(rng, p=60)
+    m = seabed_region(wf)
+    s = wf.samples_per_side
+    k = np.round(alt / DR).astype(int)
+    for i in (5, 30, 55):
+        assert abs(int(np.argmax(m[i, s:])) - k[i]) <= 2
+        assert np.array_equal(m[i, :s], m[i, s:][::-1])
+    img = waterfall_from_image(wf.intensity)
+    np.testing.assert_array_equal(seabed_region(img), seabed_mask(img))
