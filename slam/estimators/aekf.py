@@ -378,6 +378,33 @@ def _linearization_error(x0, step, idx, Rb) -> float:
     return float(e @ np.linalg.solve(Rb, e))
 
 
+def _surely_linear(x0, step, idx, R, gate: float) -> bool:
+    """True when a bound on :func:`_linearization_error` is already <= ``gate`` (then the
+    exact value is too, and routine updates skip computing it).
+
+    ``h`` depends on the pose and landmark only through ``d = m - p`` (the heading enters
+    the bearing linearly), so ``e`` is the Taylor remainder of ``[|d|, atan2(d)]`` along
+    ``delta`` (the step of ``m - p``): ``|e_r| <= |delta|² / (2 r_min)`` and ``|e_b| <=
+    |delta|² / (2 r_min²)`` (Hessian norms ``1/r`` and ``1/r²``) with ``r_min = |d| -
+    |delta|``, and ``eᵀ R⁻¹ e <= Σ |e_j|² / λ_min(R_j)``. Scalar arithmetic on the k
+    observations of a scan (a handful), cheaper than the exact check's array calls."""
+    total = 0.0
+    for j, i in enumerate(idx.tolist()):
+        c = 3 + 2 * i
+        r = math.hypot(float(x0[c] - x0[0]), float(x0[c + 1] - x0[1]))
+        ex, ey = float(step[c] - step[0]), float(step[c + 1] - step[1])
+        s2 = ex * ex + ey * ey
+        r_min = r - math.sqrt(s2)
+        a, b, d = float(R[j, 0, 0]), float(R[j, 0, 1]), float(R[j, 1, 1])
+        lam = 0.5 * (a + d) - math.hypot(0.5 * (a - d), b)
+        if r_min <= 0.0 or lam <= 0.0:
+            return False
+        e_r = 0.5 * s2 / r_min
+        e_b = e_r / r_min
+        total += (e_r * e_r + e_b * e_b) / lam
+    return total <= gate
+
+
 def _update_block(
     x, P, z, R, idx, x_lin, joseph, iterations: int = 1, relinearize_gate: float = 1.0
 ) -> None:
@@ -391,7 +418,11 @@ def _update_block(
     # W1 = P Hᵀ L⁻ᵀ, K = W1 L⁻¹ (gain, thesis's W); x += K y = W1 (L⁻¹ y)
     W1 = trsolve(L, PHt.T).T
     step = W1 @ trsolve(L, y)
-    if iterations > 1 and _linearization_error(x, step, idx, Rb) > relinearize_gate:
+    if (
+        iterations > 1
+        and not _surely_linear(x, step, idx, R, relinearize_gate)
+        and _linearization_error(x, step, idx, Rb) > relinearize_gate
+    ):
         # the EKF step left the region where h is linear (a loop closure correcting
         # metres of drift): iterate the mean. The covariance takes H at the converged
         # estimate, or with FEJ still at the first estimates: re-linearizing it there

@@ -231,6 +231,17 @@ class FastSLAM2Config:
         use it. A heuristic: the exponent follows from the heading random walk, but 0.7 m
         was tuned on the dense loop (seeds 0-19, checked on 20-39), not derived from the
         odometry noise; other vehicles or maps may need another value.
+    loop_augment_gate : augment gate on the NIS *with* the loop-closure allowance for an
+        observation that plain gating would make a new landmark (its NIS without the
+        allowance above ``augment_gate`` for every landmark): beyond it the observation is
+        a new landmark, between ``reject_gate`` and it ambiguous (discarded). The allowance
+        spreads an old landmark over metres (σ ≈ 11 m after a 650 m loop), so ``augment_gate``
+        (25) on that NIS would hold back any new landmark within ~50 m of an old one for as
+        long as the gate is wide — a landmark first seen at the loop's end was discarded for
+        all its sightings that way. 9.21 is χ²₂'s 99 % point; tuned on the dense loop's seeds
+        20-22 (closing observations had allowance-NIS ≤ 0.2, the held-back new landmark
+        9.2-26, an old one just beyond plain gating 4.6), reported on seeds 0-19. Values
+        above ``augment_gate`` act as ``augment_gate`` (the rule before this gate).
     loop_anchor_window_m : the landmarks a particle updated within this much path (m) before
         its last update are its anchors; after a closure the loop-end landmarks stay among
         them, so the gate stays wide until the particle has re-localized on the old map
@@ -249,6 +260,7 @@ class FastSLAM2Config:
     initial_capacity: int = 32
     loop_drift_100m: float = 0.7
     loop_anchor_window_m: float = 120.0
+    loop_augment_gate: float = 9.21
     weighting: str = "predictive"
 
     def __post_init__(self) -> None:
@@ -295,6 +307,11 @@ class FastSLAM2Config:
             raise ValueError(
                 f"loop_anchor_window_m must be finite and > 0, got {self.loop_anchor_window_m!r}"
             )
+        if not (np.isfinite(self.loop_augment_gate) and self.loop_augment_gate >= self.reject_gate):
+            raise ValueError(
+                f"loop_augment_gate must be finite and >= reject_gate ({self.reject_gate}), "
+                f"got {self.loop_augment_gate!r}"
+            )
         if not (np.isfinite(self.loop_drift_100m) and self.loop_drift_100m >= 0.0):
             raise ValueError(
                 f"loop_drift_100m must be finite and >= 0, got {self.loop_drift_100m!r}"
@@ -338,6 +355,7 @@ class FastSLAM2:
         initial_capacity: int = 32,
         loop_drift_100m: float = 0.7,
         loop_anchor_window_m: float = 120.0,
+        loop_augment_gate: float = 9.21,
         weighting: str = "predictive",
         seed: int | None = None,
         x0=None,
@@ -357,6 +375,7 @@ class FastSLAM2:
                 initial_capacity=initial_capacity,
                 loop_drift_100m=loop_drift_100m,
                 loop_anchor_window_m=loop_anchor_window_m,
+                loop_augment_gate=loop_augment_gate,
                 weighting=weighting,
             )
         self.config = config
@@ -610,7 +629,11 @@ class FastSLAM2:
                 best_d2 = np.take_along_axis(d2, best[..., None], 2)[..., 0]
                 dmin = d2.min(axis=2)
                 matched = np.isfinite(best_ll)
-                a = np.where(matched, best, np.where(dmin > cfg.augment_gate, _NEW, _REJECT))
+                new = (dmin > cfg.augment_gate) | (
+                    (dmin > cfg.loop_augment_gate)
+                    & (self._plain_nis_min(d2.shape, pi, pq, pl, S, dvar, Hf, v) > cfg.augment_gate)
+                )
+                a = np.where(matched, best, np.where(new, _NEW, _REJECT))
                 # One landmark per particle per scan: among observations matched to the same
                 # landmark in a particle, keep the smallest NIS (ties: first observation).
                 same = (a[:, :, None] == a[:, None, :]) & matched[:, :, None] & matched[:, None, :]
@@ -886,6 +909,21 @@ class FastSLAM2:
                 break
         Pn = _sym(P0 - K @ S @ np.swapaxes(K, 1, 2))
         return x, Pn
+
+    @staticmethod
+    def _plain_nis_min(shape, pi, pq, pl, S, dvar, Hf, v) -> np.ndarray:
+        """(n, ku) smallest NIS of each observation over the candidate pairs ``(pi, pq, pl)``
+        without the loop-closure allowance (``S`` of the pairs less ``dvar Hf Hf^T``); inf
+        where no candidate (the allowance only lowers the NIS, so a pair that is not a
+        candidate with it is beyond the augment gate without it)."""
+        d2 = np.full(shape, np.inf)
+        if pi.size:
+            Hb = Hf[pi, pl]
+            St = S - dvar[pi, pl][:, None, None] * _mm(Hb, np.swapaxes(Hb, -1, -2))
+            Sti, _ = _inv2(St)
+            vv = v[pi, pq, pl]
+            d2[pi, pq, pl] = np.einsum("...i,...ij,...j->...", vv, Sti, vv)
+        return d2.min(axis=2)
 
     def _drift_gap(self, mapped, updated, ex) -> np.ndarray:
         """(n, L) path length (m) over which each particle's pose may have drifted relative to

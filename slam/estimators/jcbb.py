@@ -68,8 +68,11 @@ def _pair_covariance(x, P, z, R, obs, lms):
         [np.broadcast_to(np.arange(3), (c, 3)), 3 + 2 * lms[:, None] + np.arange(2)], axis=1
     )  # (c, 5)
     flat = cols.reshape(-1)
-    Psub = P[np.ix_(flat, flat)].reshape(c, 5, c, 5)
-    S = np.einsum("aij,ajbk,blk->aibl", H, Psub, H).reshape(2 * c, 2 * c)
+    Hb = np.zeros((c, 2, c, 5))  # block-diagonal H of the pairs, (2c, 5c)
+    ar = np.arange(c)
+    Hb[ar, :, ar, :] = H
+    Hb = Hb.reshape(2 * c, 5 * c)
+    S = Hb @ P[np.ix_(flat, flat)] @ Hb.T  # two small products, cheaper than a 3-way einsum
     same = obs[:, None] == obs[None, :]
     Rb = np.where(same[:, None, :, None], R[obs][:, :, None, :], 0.0)  # (c, 2, c, 2)
     S = S + Rb.reshape(2 * c, 2 * c)
@@ -117,9 +120,13 @@ def jcbb(
     obs, lms = np.nonzero(nis < gate)
     if obs.size == 0:
         return JCBBResult(pairs, 0.0, nis, 0, True)
-    nu, S = _pair_covariance(x, P, z, R, obs, lms)
     limits = _chi2_limits(confidence, max(k, 1))
-    if np.unique(obs).size == obs.size and np.unique(lms).size == lms.size:
+    if obs.size == 1 and gate <= limits[0]:
+        # one candidate pair (most scans): its joint test is its individual test, passed
+        pairs[obs] = lms
+        return JCBBResult(pairs, float(nis[obs[0], lms[0]]), nis, 1, True)
+    nu, S = _pair_covariance(x, P, z, R, obs, lms)
+    if len(set(obs.tolist())) == obs.size and len(set(lms.tolist())) == lms.size:
         # one candidate per observation, each landmark once (most scans): if they are
         # jointly compatible, that hypothesis is the only one of the largest size
         w = np.linalg.solve(np.linalg.cholesky(S), nu)
