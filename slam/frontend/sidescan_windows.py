@@ -15,19 +15,23 @@ max(min_ground_range, altitude / 2): the first bottom return) and regions smalle
 ``min_area_m2`` on the ground (pixel = bin width x along-track spacing; speckle blobs)
 are ignored.
 
-Each detection is tied to the ping k nearest its centroid (time t_k): the observation
-comes from the front end's side-scan observation model
-(slam.frontend.observation.range_bearing_from_pixels with a SideScanGeometry built from
-ping k: its bottom-tracked altitude, the along-track spacing speed / ping rate), i.e.
-ground range sqrt(r^2 - h^2) and bearing ~ +90 deg (port) / -90 deg (starboard) seen
-from the pose at ping k, with a covariance from cell sizes and the region's extent.
-Detections whose centroid lies in the water column (slant range < altitude) give no
-observation. A view-dependent term is added to that covariance: a side-scan highlight
-is the sonar-facing part of an object, so its centroid moves across the object between
-passes from opposite sides; ``view_bias`` x the region's across-track extent (range) and
-along-track extent (as a bearing) are added as standard deviations (0.5: half the
-extent), so re-observations from the other side still pass the association gates. slam.pipeline feeds it to SLAM at the pose of t_k
-(slam.pipeline.lagged).
+An object cut by a window's trailing edge (a wreck longer than the hop) is held and
+merged with its continuation in the next window, so it becomes one detection of the
+whole object (the released horizon waits for it: slam.frontend.extended_objects.Part).
+
+Each detection is tied to the ping k nearest its centre (time t_k). An object that
+casts a shadow is located at its centre from highlight + shadow
+(slam.frontend.extended_objects.object_centre: across-track midpoint between the near
+edge and the top's far edge, the height from the shadow's length), with a covariance
+that says how well that centre is known. Without a shadow (or without the ``shadow``
+callable), the observation comes from the highlight's centroid through the side-scan
+observation model (slam.frontend.observation.range_bearing_from_pixels: ground range
+sqrt(r^2 - h^2), bearing ~ +90 deg (port) / -90 deg (starboard) from the pose at ping
+k, covariance from cell sizes and the region's extent) plus a view-dependent term: the
+highlight is the sonar-facing part of the object, so ``view_bias`` x its across-track
+extent (range) and along-track extent (as a bearing) are added as standard deviations
+(0.5: half the extent). Detections centred in the water column give no observation.
+slam.pipeline feeds each to SLAM at the pose of t_k (slam.pipeline.lagged).
 
 Scoring uses the simulator's per-sample labels: a detection is a true positive when at
 least ``tp_fraction`` of its region's pixels carry an object id > 0.
@@ -271,7 +275,7 @@ class SidescanProcessor:
                 altitude_sigma=self.altitude_sigma,
                 end_sigma_rows=max(
                     1.0,
-                    float(np.hypot(*obj.ground) / 2 * np.radians(self.along_track_beamwidth_deg))
+                    float(0.5 * sum(obj.ground) * np.radians(self.along_track_beamwidth_deg))
                     / spacing,
                 ),
             )
