@@ -209,7 +209,9 @@ class SidescanProcessor:
         bg_pixels = int(np.count_nonzero(bg))
         imaged = set(np.unique(lab[rows_owned][lab[rows_owned] > 0]).tolist())
         overlay = np.zeros(img.shape, np.uint16)
-        parts = self._candidates(a, img.shape[1] // 2, lab, seg_labels, regions, overlay, rel_db)
+        parts = self._candidates(
+            a, img.shape[1] // 2, lab, seg_labels, regions, overlay, rel_db, edge
+        )
         dets = self._detections(a, img, parts, own_lo, own_hi, final, edge)
         self._owned_until = own_hi
         self._next_start = a + H
@@ -228,9 +230,18 @@ class SidescanProcessor:
         S = img.shape[1] // 2
         rate = self._ping_rate()
         held_ids = {id(p) for p in self._held}
+        last = a + img.shape[0]
+        # as before extended objects: only regions whose centroid this window owns, plus
+        # those cut by its trailing edge (and the held ones) may merge - a region owned
+        # by an earlier window must not chain its neighbours together
+        parts = [
+            p
+            for p in parts
+            if own_lo <= (p.pix // (2 * S)).mean() + 0.5 < own_hi
+            or (p.bbox[2] >= last and not final)
+        ]
         groups = self._merge(self._held + parts, rate)
         self._held = []
-        last = a + img.shape[0]
         out = []
         for grp in groups:
             obj = merge_parts(grp, S)
@@ -329,9 +340,10 @@ class SidescanProcessor:
             wxy,
         )
 
-    def _candidates(self, a, S, lab, seg_labels, regions, overlay, rel_db) -> list[Part]:
-        """Every region of the window that may be (part of) an object - size, ground-area
-        and nadir tests - as a :class:`Part` in absolute coordinates. Marks the overlay."""
+    def _candidates(self, a, S, lab, seg_labels, regions, overlay, rel_db, edge) -> list[Part]:
+        """Every region of the window that may be (part of) an object - size, ground-area,
+        nadir and first-return-edge tests - as a :class:`Part` in absolute coordinates.
+        Marks the overlay."""
         flat_seg = seg_labels.ravel()
         order = np.argsort(flat_seg, kind="stable")
         bounds = np.searchsorted(flat_seg[order], np.arange(int(flat_seg.max(initial=0)) + 2))
@@ -342,6 +354,11 @@ class SidescanProcessor:
             if reg.area_px < self.min_area_px:
                 continue
             r, c = reg.centroid_rc
+            if (
+                edge is not None
+                and edge[min(round(r), edge.shape[0] - 1), min(round(c), 2 * S - 1)]
+            ):
+                continue  # the first-return edge / water column is not part of an object
             k = min(a + round(r), len(self.pings) - 1)
             pk = self.pings[k]
             bin_w = float(np.median(np.diff(pk.slant_range)))
