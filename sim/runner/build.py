@@ -112,11 +112,7 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
     """A vehicle's [frontend] and [slam] tables as the pipeline's config. The runner has
     always segmented side-scan windows without the ground-area speckle filter, so
     ``frontend.min_area_m2`` is not applied (kept so the built-in scenarios' numbers
-    hold; see docs/pipeline.md). The start pose is exact (the vehicle is placed there
-    and its navigation starts there with zero position covariance,
-    sim.navigation.dead_reckoning), so SLAM's initial pose covariance is zero too
-    (thesis Sec. 5.6.1: the world frame is the initial pose); the matched odometry
-    covariance then grows it as the navigation's own error grows."""
+    hold; see docs/pipeline.md)."""
     fe, sl = v.frontend, v.slam
     return PipelineConfig(
         method=fe.method,
@@ -125,8 +121,6 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
         hop_pings=fe.hop_pings,
         merge_radius_m=sl.association_gate_m,
         timing=sl.timing,
-        pose0_var_xy_m2=0.0,
-        pose0_sigma_yaw_deg=0.0,
     )
 
 
