@@ -218,7 +218,9 @@ def _horizontal(
     return g, slant / g
 
 
-def _xy_cov_to_rb(x, y, vxx, vyy, vxy=0.0):
+def xy_cov_to_range_bearing(x, y, vxx, vyy, vxy=0.0):
+    """Body (x, y) m with variances (vxx, vyy, covariance vxy), arrays of one shape ->
+    (range m, bearing rad, (..., 2, 2) covariance of [range, bearing]), first order."""
     rho = np.hypot(x, y)
     if np.any(rho <= 0):
         raise ValueError("detection at the sonar origin (range 0): bearing undefined")
@@ -247,7 +249,7 @@ def _sss(g: SideScanGeometry, c: np.ndarray, e: np.ndarray, ref_row):
     y = np.where(port, ground + g.transducer_y, -ground - g.transducer_y)
     foot = slant * np.radians(g.along_track_beamwidth_deg)
     var_x = (g.along_track_spacing**2 * (1.0 + e[:, 0] ** 2) + foot**2) / 12.0
-    return _xy_cov_to_rb(x, y, var_x, var_g)
+    return xy_cov_to_range_bearing(x, y, var_x, var_g)
 
 
 def _polar(slant, theta, var_slant, var_theta, altitude, what):
@@ -280,7 +282,7 @@ def _fls(g: FLSGeometry, c: np.ndarray, e: np.ndarray):
     y = g.y_max - (c[:, 1] + 0.5) * ps
     vx = ps**2 * (1.0 + e[:, 0] ** 2) / 12.0
     vy = ps**2 * (1.0 + e[:, 1] ** 2) / 12.0
-    slant, theta, cov = _xy_cov_to_rb(x, y, vx, vy)
+    slant, theta, cov = xy_cov_to_range_bearing(x, y, vx, vy)
     cov[:, 1, 1] += bw**2 / 12.0
     rho, drho = _horizontal(slant, g.altitude, "FLS detection")
     cov[:, 0, 0] *= drho**2

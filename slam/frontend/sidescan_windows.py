@@ -16,19 +16,23 @@ max(min_ground_range, altitude / 2): the first bottom return) and regions smalle
 or longer than ``max_extent_m`` along track or across (a seabed band or patch: its
 centroid is no repeatable point for a point landmark) are ignored.
 
-Each detection is tied to the ping k nearest its centroid (time t_k): the observation
-comes from the front end's side-scan observation model
-(slam.frontend.observation.range_bearing_from_pixels with a SideScanGeometry built from
-ping k: its bottom-tracked altitude, the along-track spacing speed / ping rate), i.e.
-ground range sqrt(r^2 - h^2) and bearing ~ +90 deg (port) / -90 deg (starboard) seen
-from the pose at ping k, with a covariance from cell sizes and the region's extent.
-Detections whose centroid lies in the water column (slant range < altitude) give no
-observation. A view-dependent term is added to that covariance: a side-scan highlight
-is the sonar-facing part of an object, so its centroid moves across the object between
-passes from opposite sides; ``view_bias`` x the region's across-track extent (range) and
-along-track extent (as a bearing) are added as standard deviations (0.5: half the
-extent), so re-observations from the other side still pass the association gates. slam.pipeline feeds it to SLAM at the pose of t_k
-(slam.pipeline.lagged).
+An object cut by a window's trailing edge (a wreck longer than the hop) is held and
+merged with its continuation in the next window, so it becomes one detection of the
+whole object (the released horizon waits for it: slam.frontend.extended_objects.Part).
+
+Each detection is tied to the ping k nearest its centre (time t_k). An object that
+casts a shadow is located at its centre from highlight + shadow
+(slam.frontend.extended_objects.object_centre: across-track midpoint between the near
+edge and the top's far edge, the height from the shadow's length), with a covariance
+that says how well that centre is known. Without a shadow (or without the ``shadow``
+callable), the observation comes from the highlight's centroid through the side-scan
+observation model (slam.frontend.observation.range_bearing_from_pixels: ground range
+sqrt(r^2 - h^2), bearing ~ +90 deg (port) / -90 deg (starboard) from the pose at ping
+k, covariance from cell sizes and the region's extent) plus a view-dependent term: the
+highlight is the sonar-facing part of the object, so ``view_bias`` x its across-track
+extent (range) and along-track extent (as a bearing) are added as standard deviations
+(0.5: half the extent). Detections centred in the water column give no observation.
+slam.pipeline feeds each to SLAM at the pose of t_k (slam.pipeline.lagged).
 
 Scoring uses the simulator's per-sample labels: a detection is a true positive when at
 least ``tp_fraction`` of its region's pixels carry an object id > 0.
@@ -41,7 +45,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from slam.frontend.observation import SideScanGeometry, range_bearing_from_pixels
+from slam.frontend.extended_objects import (
+    SHADOW,
+    Part,
+    ShadowConfig,
+    merge_parts,
+    object_centre,
+    row_profile,
+)
+from slam.frontend.observation import (
+    SideScanGeometry,
+    range_bearing_from_pixels,
+    xy_cov_to_range_bearing,
+)
 from slam.types import RangeBearing
 
 
@@ -125,6 +141,9 @@ class SidescanProcessor:
         max_extent_m: float = np.inf,
         edge_mask: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
         drop_mirrored: bool = False,
+        shadow: Callable[[np.ndarray], np.ndarray] | None = None,
+        shadow_config: ShadowConfig = SHADOW,
+        max_object_pings: int | None = None,
     ) -> None:
         if not 1 <= hop <= window:
             raise ValueError(f"hop must be in [1, window={window}], got {hop}")
@@ -148,6 +167,15 @@ class SidescanProcessor:
         # so are detections mirrored across nadir (drop_mirrored; recorded data)
         self.edge_mask = edge_mask
         self.drop_mirrored = bool(drop_mirrored)
+        # raw window -> dB below the seabed level (extended_objects.make_shadow_db): the
+        # objects' shadows give their centres; None: highlights only
+        self.shadow = shadow
+        self.shadow_config = shadow_config
+        # an object cut by the window's trailing edge is held for the next window until
+        # it spans this many pings (default 3 windows)
+        self.max_object_pings = int(max_object_pings or 3 * self.window)
+        self._held: list[Part] = []
+        self._long: list[tuple[bool, tuple[int, int, int, int]]] = []
         self.pings: list[PingRecord] = []
         self._next_start = 0  # start ping of the next window
         self._owned_until = 0  # pings < this are owned by processed windows
@@ -176,6 +204,7 @@ class SidescanProcessor:
             if self.edge_mask is not None
             else None
         )
+        rel_db = self.shadow(img) if self.shadow is not None else None
         lab = np.stack(
             [p.labels if p.labels is not None else np.zeros(img.shape[1], np.int32) for p in pings]
         ).astype(np.int32)
@@ -191,80 +220,155 @@ class SidescanProcessor:
         bg_pixels = int(np.count_nonzero(bg))
         imaged = set(np.unique(lab[rows_owned][lab[rows_owned] > 0]).tolist())
         overlay = np.zeros(img.shape, np.uint16)
-        dets = self._detections(
-            a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay, edge
+        parts = self._candidates(
+            a, img.shape[1] // 2, lab, seg_labels, regions, overlay, rel_db, edge
         )
+        dets = self._detections(a, img, parts, own_lo, own_hi, final, edge)
         self._owned_until = own_hi
         self._next_start = a + H
         horizon = self.pings[own_hi - 1].t
+        if self._held:  # a held object may still be observed at its first ping
+            first = min(p.bbox[0] for p in self._held)
+            horizon = min(horizon, self.pings[first].t - 1e-9)
         self.horizon = horizon
         return WindowResult(a, img, overlay, dets, horizon, fp_pixels, bg_pixels, imaged)
 
-    def _detections(
-        self, a, pings, img, lab, seg_labels, regions, own_lo, own_hi, overlay, edge=None
-    ) -> list[Detection]:
+    def _detections(self, a, img, parts, own_lo, own_hi, final, edge=None) -> list[Detection]:
+        """Merge the window's parts (and the objects held from the last window) into
+        objects; hold those cut by the window's trailing edge; emit the rest whose
+        centroid ping this window owns, and objects continuing a held one whose owner
+        has passed (those a later window owns stay held)."""
         S = img.shape[1] // 2
         rate = self._ping_rate()
-        cand = self._candidates(a, S, lab, seg_labels, regions, own_lo, own_hi, overlay, rate)
-        # merge regions of one object (single linkage): same side, gap between their
-        # footprints (along-track x ground range, metres) below merge_radius
-        groups = self._merge(cand, rate)
-        centres = [_weighted_centre(grp) for grp in groups]
-        mirrored = self._mirrored(centres, S)
-        out = []
-        for grp, (row, col), twin in zip(groups, centres, mirrored):
-            w = np.array([g_[4] for g_ in grp], float)
+        held_ids = {id(p) for p in self._held}
+        last = a + img.shape[0]
+        # as before extended objects: only regions whose centroid this window owns, plus
+        # those cut by its trailing edge (and the held ones) may merge - a region owned
+        # by an earlier window must not chain its neighbours together
+        parts = [
+            p
+            for p in parts
+            if own_lo <= (p.pix // (2 * S)).mean() + 0.5 < own_hi
+            or (p.bbox[2] >= last and not final)
+        ]
+        # a held object continued by a region too long to be an object is that band's
+        # first part, not an object
+        held = [h for h in self._held if not _overlaps_any(h, self._long)]
+        groups = self._merge(held + parts, rate)
+        self._held = []
+        out, keep = [], []
+        for grp in groups:
+            obj = merge_parts(grp, S)
+            span = obj.bbox[2] - obj.bbox[0]
+            if not final and obj.bbox[2] >= last and span < self.max_object_pings:
+                self._held.append(obj)
+                continue
+            continued = any(id(p) in held_ids for p in grp)
+            row = float((obj.pix // (2 * S)).mean())
             k = round(row)
-            if twin or (edge is not None and edge[k - a, min(round(col), img.shape[1] - 1)]):
-                continue  # centred on the first-return edge / water column, or its mirror
-            port = grp[0][2]
-            bb = np.array([g_[5] for g_ in grp])
-            ext = (float(bb[:, 2].max() - bb[:, 0].min()), float(bb[:, 3].max() - bb[:, 1].min()))
-            big = max(grp, key=lambda x: x[4])
-            oid, frac = big[6], float(np.average([g_[7] for g_ in grp], weights=w))
+            if k >= own_hi and not final:  # a later window owns it: hold what was held
+                if continued:
+                    self._held.append(obj)
+                continue
+            if k < own_lo and not continued:  # an earlier window owned it
+                continue
+            col = float((obj.pix % (2 * S)).mean())
+            if edge is not None and a <= k < last:
+                if edge[k - a, min(round(col), img.shape[1] - 1)]:
+                    continue  # centred on the first-return edge / water column
+            if self._too_long(obj, span, rate):  # a seabed band assembled across windows
+                continue
+            keep.append((obj, row, col))
+        mirrored = self._mirrored([(row, col) for _, row, col in keep], S)
+        for (obj, row, col), twin in zip(keep, mirrored):
+            if twin:  # its mirror across nadir: the first-return rim, not an object
+                continue
+            det = self._detection(obj, row, col, S, rate)
+            if det is not None:
+                out.append(det)
+        out.sort(key=lambda d: (d.t, d.side, d.ground_range))
+        return out
+
+    def _detection(self, obj: Part, row: float, col: float, S: int, rate: float):
+        """The Detection of one object: its centre from highlight and shadow
+        (slam.frontend.extended_objects) when it casts one, else its highlight's
+        centroid with the view-dependent term; None in the water column."""
+        k = round(row)
+        p = self.pings[k]
+        bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
+        spacing = max(p.speed, 0.05) / rate
+        alts = np.array([self.pings[int(i)].altitude for i in obj.rows])
+        centre = (
+            object_centre(
+                obj,
+                p.slant_range,
+                alts,
+                bin_w,
+                altitude_sigma=self.altitude_sigma,
+                end_sigma_rows=max(
+                    1.0,
+                    float(0.5 * sum(obj.ground) * np.radians(self.along_track_beamwidth_deg))
+                    / spacing,
+                ),
+            )
+            if self.shadow is not None
+            else None
+        )
+        if centre is not None:
+            k = min(max(round(centre.row), 0), len(self.pings) - 1)
             p = self.pings[k]
-            bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
+            sign = 1.0 if obj.port else -1.0
+            x = np.array([(centre.row - k) * spacing])
+            y = np.array([sign * centre.ground])
+            rho, brg, cov = xy_cov_to_range_bearing(
+                x, y, np.array([centre.var_rows * spacing**2]), np.array([centre.var_ground])
+            )
+            rng_, R = rho, cov[0]
+        else:
+            ext = (obj.bbox[2] - obj.bbox[0], obj.bbox[3] - obj.bbox[1])
             geom = SideScanGeometry(
                 slant_range_max=float(p.slant_range[-1] + bin_w / 2),
                 samples_per_side=S,
                 altitude=max(float(p.altitude), 0.0),
-                along_track_spacing=max(p.speed, 0.05) / rate,
+                along_track_spacing=spacing,
                 slant_range_min=max(float(p.slant_range[0] - bin_w / 2), 0.0),
                 along_track_beamwidth_deg=self.along_track_beamwidth_deg,
                 altitude_sigma=self.altitude_sigma,
             )
             try:
                 rng_, brg, cov = range_bearing_from_pixels(
-                    geom, np.array([[row - a, col]]), np.array([ext]), ref_row=float(k - a)
+                    geom, np.array([[row - k, col]]), np.array([ext]), ref_row=0.0
                 )
-            except ValueError:  # centroid in the water column (no ground range): no observation
-                continue
+            except ValueError:  # centroid in the water column (no ground range)
+                return None
             R = cov[0].copy()
             if self.view_bias > 0:  # the highlight's place on the object depends on the view
                 R[0, 0] += (self.view_bias * ext[1] * bin_w) ** 2
-                R[1, 1] += (
-                    self.view_bias * ext[0] * geom.along_track_spacing / max(rng_[0], 1.0)
-                ) ** 2
-            obs = RangeBearing([rng_[0], brg[0]], R, t=p.t, meta={"object_id": oid, "ping": k})
-            x, y, yaw = _placing_pose(p)
-            wxy = np.array([x + rng_[0] * np.cos(yaw + brg[0]), y + rng_[0] * np.sin(yaw + brg[0])])
-            slant = float(np.hypot(rng_[0], p.altitude))
-            out.append(
-                Detection(
-                    p.t,
-                    k,
-                    "port" if port else "starboard",
-                    slant,
-                    float(rng_[0]),
-                    int(w.sum()),
-                    obs,
-                    oid,
-                    frac >= self.tp_fraction,
-                    wxy,
-                )
-            )
-        out.sort(key=lambda d: (d.t, d.side, d.ground_range))
-        return out
+                R[1, 1] += (self.view_bias * ext[0] * spacing / max(rng_[0], 1.0)) ** 2
+        obs = RangeBearing([rng_[0], brg[0]], R, t=p.t, meta={"object_id": obj.oid, "ping": k})
+        x0, y0, yaw = _placing_pose(p)
+        wxy = np.array([x0 + rng_[0] * np.cos(yaw + brg[0]), y0 + rng_[0] * np.sin(yaw + brg[0])])
+        return Detection(
+            p.t,
+            k,
+            "port" if obj.port else "starboard",
+            float(np.hypot(rng_[0], p.altitude)),
+            float(rng_[0]),
+            obj.area_px,
+            obs,
+            obj.oid,
+            obj.frac >= self.tp_fraction,
+            wxy,
+        )
+
+    def _too_long(self, obj: Part, span: int, rate: float) -> bool:
+        """True when the object is longer than ``max_extent_m`` along track or across
+        (its parts may each pass the per-region test in _candidates)."""
+        if not np.isfinite(self.max_extent_m):
+            return False
+        p = self.pings[min(obj.bbox[0], len(self.pings) - 1)]
+        along = span * max(p.speed, 0.05) / rate
+        return max(along, obj.ground[1] - obj.ground[0]) > self.max_extent_m
 
     def _mirrored(self, centres: list[tuple[float, float]], S: int) -> np.ndarray:
         """(n,) bool: groups mirrored across nadir (artefacts.mirrored_across_nadir)."""
@@ -279,63 +383,71 @@ class SidescanProcessor:
         slant = np.array([self.pings[i].slant_range[int(j)] for i, j in zip(k, sample)])
         return mirrored_across_nadir(k, port, slant)
 
-    def _candidates(self, a, S, lab, seg_labels, regions, own_lo, own_hi, overlay, rate):
-        """Regions of the owned rows that may be detections: size, ground-area and nadir
-        tests; per region [row, col, port, ground range, area, bbox, object id, object
-        fraction, (near, far) ground range]. Marks each in the overlay."""
+    def _candidates(self, a, S, lab, seg_labels, regions, overlay, rel_db, edge) -> list[Part]:
+        """Every region of the window that may be (part of) an object - size, ground-area,
+        nadir and first-return-edge tests - as a :class:`Part` in absolute coordinates.
+        Marks the overlay."""
         flat_seg = seg_labels.ravel()
         order = np.argsort(flat_seg, kind="stable")
         bounds = np.searchsorted(flat_seg[order], np.arange(int(flat_seg.max(initial=0)) + 2))
+        rate = self._ping_rate()
+        W2 = seg_labels.shape[1]
         cand = []
+        self._long = []  # (port, absolute bbox) of the regions too long to be objects
         for reg in regions:
             if reg.area_px < self.min_area_px:
                 continue
-            if self.min_area_m2 > 0:  # speckle blobs are small on the ground
-                pk = self.pings[min(a + round(reg.centroid_rc[0]), len(self.pings) - 1)]
-                px_m2 = float(np.median(np.diff(pk.slant_range))) * max(pk.speed, 0.05) / rate
-                if reg.area_px * px_m2 < self.min_area_m2:
-                    continue
             r, c = reg.centroid_rc
-            k = a + round(r)
-            if not own_lo <= k < own_hi:
-                continue
+            if (
+                edge is not None
+                and edge[min(round(r), edge.shape[0] - 1), min(round(c), 2 * S - 1)]
+            ):
+                continue  # the first-return edge / water column is not part of an object
+            k = min(a + round(r), len(self.pings) - 1)
+            pk = self.pings[k]
+            bin_w = float(np.median(np.diff(pk.slant_range)))
+            if self.min_area_m2 > 0:  # speckle blobs are small on the ground
+                if reg.area_px * bin_w * max(pk.speed, 0.05) / rate < self.min_area_m2:
+                    continue
             idx = order[bounds[reg.label] : bounds[reg.label + 1]]
             region_labels = lab.ravel()[idx]
             objs = region_labels[region_labels > 0]
             oid = int(np.bincount(objs).argmax()) if objs.size else 0
-            frac = objs.size / max(idx.size, 1)
-            overlay.ravel()[idx] = self.class_of(oid) if oid > 0 else 255
             port = c < S - 0.5
             sample = int(np.clip(round((S - 1 - c) if port else (c - S)), 0, S - 1))
-            p = self.pings[k]
-            rs = float(p.slant_range[sample])
-            g = float(np.sqrt(max(rs * rs - p.altitude**2, 0.0)))
-            if g < max(self.min_ground_range, 0.5 * p.altitude):  # nadir band: first return
+            rs = float(pk.slant_range[sample])
+            g = float(np.sqrt(max(rs * rs - pk.altitude**2, 0.0)))
+            if g < max(self.min_ground_range, 0.5 * pk.altitude):  # nadir band: first return
                 continue
+            overlay.ravel()[idx] = self.class_of(oid) if oid > 0 else 255
             r0, c0, r1, c1 = reg.bbox
             s0 = (S - c1) if port else (c0 - S)  # nearest sample of the box from nadir
             s1 = (S - 1 - c0) if port else (c1 - 1 - S)
-            sl = p.slant_range[np.clip([s0, s1], 0, S - 1)]
-            gi = np.sqrt(np.clip(sl**2 - p.altitude**2, 0.0, None))
-            along = (r1 - r0) * max(p.speed, 0.05) / rate
+            sl = pk.slant_range[np.clip([s0, s1], 0, S - 1)]
+            gi = np.sqrt(np.clip(sl**2 - pk.altitude**2, 0.0, None))
+            along = (r1 - r0) * max(pk.speed, 0.05) / rate
             if max(along, gi[1] - gi[0]) > self.max_extent_m:  # no repeatable point
+                self._long.append((bool(port), (a + r0, c0, a + r1, c1)))
                 continue
+            rows_l, cols = np.divmod(idx, W2)
+            prof = row_profile(rows_l, cols, port, S, rel_db, bin_w, self.shadow_config)
             cand.append(
-                [
-                    a + r,
-                    c,
-                    port,
-                    g,
-                    reg.area_px,
+                Part(
+                    bool(port),
+                    np.sort((rows_l + a) * W2 + cols),
+                    prof[0] + a,
+                    *prof[1:],
                     (a + r0, c0, a + r1, c1),
+                    (float(gi[0]), float(gi[1])),
                     oid,
-                    frac,
-                    (gi[0], gi[1]),
-                ]
+                    objs.size / max(idx.size, 1),
+                )
             )
         return cand
 
-    def _merge(self, cand: list, rate: float) -> list[list]:
+    def _merge(self, cand: list[Part], rate: float) -> list[list[Part]]:
+        """Single linkage of parts on one side whose footprints (along-track x ground
+        range, m) lie closer than ``merge_radius``; groups in input order."""
         n = len(cand)
         parent = list(range(n))
 
@@ -348,12 +460,12 @@ class SidescanProcessor:
         for i in range(n):
             for j in range(i + 1, n):
                 a_, b_ = cand[i], cand[j]
-                if a_[2] != b_[2]:
+                if a_.port != b_.port:
                     continue
-                spacing = max(self.pings[round(a_[0])].speed, 0.1) / rate
-                gap_al = max(0.0, max(a_[5][0], b_[5][0]) - min(a_[5][2], b_[5][2])) * spacing
-                gap_g = max(0.0, max(a_[8][0], b_[8][0]) - min(a_[8][1], b_[8][1]))
-                if np.hypot(gap_al, gap_g) < self.merge_radius:
+                spacing = max(self.pings[min(a_.bbox[0], len(self.pings) - 1)].speed, 0.1) / rate
+                gap_al = max(0, max(a_.bbox[0], b_.bbox[0]) - min(a_.bbox[2], b_.bbox[2]))
+                gap_g = max(0.0, max(a_.ground[0], b_.ground[0]) - min(a_.ground[1], b_.ground[1]))
+                if np.hypot(gap_al * spacing, gap_g) < self.merge_radius:
                     parent[find(i)] = find(j)
         groups: dict[int, list] = {}
         for i in range(n):
@@ -368,12 +480,12 @@ class SidescanProcessor:
         return 1.0 / dt if dt > 0 else 10.0
 
 
-def _weighted_centre(group: list) -> tuple[float, float]:
-    """(row, col) of a merged group: its regions' centroids weighted by their areas."""
-    w = np.array([g_[4] for g_ in group], float)
-    return (
-        float(np.average([g_[0] for g_ in group], weights=w)),
-        float(np.average([g_[1] for g_ in group], weights=w)),
+def _overlaps_any(part: Part, boxes: list[tuple[bool, tuple[int, int, int, int]]]) -> bool:
+    """True when the part's bbox meets one of the (port, bbox) boxes on its side."""
+    r0, c0, r1, c1 = part.bbox
+    return any(
+        port == part.port and r0 < b[2] and b[0] < r1 and c0 < b[3] and b[1] < c1
+        for port, b in boxes
     )
 
 
@@ -384,110 +496,3 @@ def _placing_pose(p: PingRecord) -> np.ndarray:
     if p.pose_nav is not None:
         return np.asarray(p.pose_nav, float)
     return np.full(3, np.nan)
-
-
-def no_return_mask(img: np.ndarray) -> np.ndarray:
-    """(P, 2S) bool: samples past the last echo of each ping side (port left, far first).
-
-    A side-scan ping that runs past the end of the insonified seabed (the swath cut off by
-    the edge of the surveyed area, a bank, the end of the recorded range) ends in a run of
-    samples at the display floor (value <= 0, log-compressed or linear). That trailing run,
-    counted from the far end of each side, is flagged; isolated dark samples before the
-    last echo (speckle dips, shadows behind objects) are not. Vectorized over pings.
-    """
-    x = np.asarray(img)
-    if x.ndim != 2 or x.shape[1] % 2:
-        raise ValueError(f"img must be (pings, 2 x samples), got shape {x.shape}")
-    s = x.shape[1] // 2
-    echo = x > 0
-    # per side, near -> far; the last echo index (-1: none)
-    out = np.empty(x.shape, dtype=bool)
-    for cols, flip in ((slice(None, s), True), (slice(s, None), False)):
-        e = echo[:, cols][:, ::-1] if flip else echo[:, cols]
-        last = np.where(e.any(axis=1), s - 1 - np.argmax(e[:, ::-1], axis=1), -1)
-        m = np.arange(s)[None, :] > last[:, None]
-        out[:, cols] = m[:, ::-1] if flip else m
-    return out
-
-
-def make_sss_prepare(
-    log_compressed: bool, dynamic_range_db: float, looks: int = 3, normalization: str = "mira"
-):
-    """The front end's input conditioning for a side-scan window, in order:
-
-    1. back to linear intensity if the sonar log-compressed its output for display
-       (x in [0, 1] spans ``dynamic_range_db``; the offset cancels in step 2);
-    2. normalization -> ~1 on average seabed, by ``normalization``:
-       ``"mira"`` (slam.frontend.normalization.mira_normalize, thesis Ch. 4.1: per side,
-       mixed-exponential fit of the range profile, 9 pings averaged around the window's
-       middle ping), or ``"column-median"``: each range sample divided by its median over
-       the window's pings (the usual empirical along-track normalization; it also removes
-       range-gain shapes the two exponentials cannot fit, such as a rise near nadir);
-    3. the water column (slant range < altitude of that ping) and the samples past the
-       last echo of a ping (:func:`no_return_mask`: a swath cut off by the end of the
-       seabed) set to the seabed level 1, so the threshold separates highlights from
-       seabed, not seabed from water or from no data (a large no-data block at -10 dB
-       makes the window's histogram bimodal and drags the threshold into the seabed);
-    4. ``looks`` x ``looks`` incoherent averaging (cv2.blur) against single-look speckle;
-    5. dB (10 log10, clipped to [-10, 20] dB) for the segmentation.
-    """
-    import cv2
-
-    from slam.frontend.normalization import mira_normalize
-
-    if normalization not in ("mira", "column-median"):
-        raise ValueError(f"normalization: got {normalization!r}; allowed: mira, column-median")
-
-    def prepare(img: np.ndarray, altitudes: np.ndarray, slant: np.ndarray) -> np.ndarray:
-        lin = (
-            np.power(10.0, img * (dynamic_range_db / 10.0))
-            if log_compressed
-            else img.astype(np.float64)
-        )
-        noret = no_return_mask(img)
-        if normalization == "mira":
-            m = mira_normalize(lin.astype(np.float32), average=9).normalized
-        else:
-            m = lin / np.maximum(np.median(lin, axis=0, keepdims=True), 1e-12)
-        S = m.shape[1] // 2
-        wc = slant[None, :] < altitudes[:, None]  # (P, S) near -> far
-        full = np.concatenate([wc[:, ::-1], wc], axis=1) | noret
-        m = np.where(full, 1.0, m).astype(np.float32)
-        if looks > 1:
-            m = cv2.blur(m, (looks, looks))
-        assert m.shape[1] == 2 * S
-        return (10.0 * np.log10(np.clip(m, 0.1, 100.0))).astype(np.float32)
-
-    return prepare
-
-
-def make_fls_prepare(
-    log_compressed: bool,
-    dynamic_range_db: float,
-    looks: int = 5,
-    window: int = 15,
-    floor: float = 0.02,
-):
-    """Conditioning of an FLS polar frame (bins, beams) before segmentation: linear
-    intensity; each cell divided by the median of its ``window`` x ``window`` neighbourhood
-    (a local background estimate: the seabed's level changes with range and grazing angle
-    across the fan, so a per-range normalization is not enough; scipy.ndimage); cells
-    without a return (display value <= ``floor``) set to the background level 1;
-    ``looks`` x ``looks`` averaging against speckle; dB for the segmentation."""
-    import cv2
-    from scipy import ndimage
-
-    def prepare(img: np.ndarray) -> np.ndarray:
-        x = img.astype(np.float64)
-        lin = np.power(10.0, x * (dynamic_range_db / 10.0)) if log_compressed else x
-        valid = x > (floor if log_compressed else floor * max(float(x.max()), 1e-30))
-        if not valid.any():
-            return np.zeros(x.shape, np.float32)
-        fill = float(np.median(lin[valid]))
-        bg = ndimage.median_filter(np.where(valid, lin, fill), size=window)
-        m = np.where(valid, lin / np.maximum(bg, 1e-30), 1.0).astype(np.float32)
-        if looks > 1:
-            m = cv2.blur(m, (looks, looks))
-        return (10.0 * np.log10(np.clip(m, 0.1, 100.0))).astype(np.float32)
-
-    return prepare

@@ -17,16 +17,18 @@ from typing import Any
 import numpy as np
 
 from slam.estimators import make_estimator
+from slam.frontend.extended_objects import make_shadow_db
 from slam.frontend.polar import FLS_FRONTEND, MSIS_FRONTEND, PolarFrontend, PolarFrontendConfig
 from slam.frontend.segmentation.artefacts import first_return_edge_from_altitude
 from slam.frontend.segmentation.methods import segment
-from slam.frontend.sidescan_windows import SidescanProcessor, make_sss_prepare
+from slam.frontend.sidescan_prepare import make_sss_prepare
+from slam.frontend.sidescan_windows import SidescanProcessor
 from slam.pipeline.frame import SonarGeometry
 
 #: SLAM timing modes: "lagged" feeds each delayed observation at the pose of its ping
 #: (slam.pipeline.lagged); "naive" at the time it is produced, as if seen from there
 TIMING_MODES = ("lagged", "naive")
-#: side-scan normalizations (slam.frontend.sidescan_windows.make_sss_prepare)
+#: side-scan normalizations (slam.frontend.sidescan_prepare.make_sss_prepare)
 NORMALIZATIONS = ("mira", "column-median")
 
 
@@ -49,6 +51,9 @@ class PipelineConfig:
     slam.frontend.segmentation.artefacts.first_return_edge_from_altitude) or mirrored
     across nadir (artefacts.mirrored_across_nadir) are dropped — the symmetric bright rim
     of the first return on recorded data is not an object.
+    extended_objects: side-scan objects are located at their centres from highlight and
+    shadow and assembled across windows (slam.frontend.extended_objects); False: at
+    their highlight's centroid.
     """
 
     method: str = "improved-otsu"
@@ -68,6 +73,7 @@ class PipelineConfig:
     pose0_var_xy_m2: float = 0.01
     pose0_sigma_yaw_deg: float = 0.5
     drop_first_return_edge: bool = False
+    extended_objects: bool = True
 
     def __post_init__(self) -> None:
         if not 1 <= self.hop_pings <= self.window_pings:
@@ -163,6 +169,11 @@ def make_frontend(
             min_ground_range=config.min_ground_range_m,
             edge_mask=first_return_edge_from_altitude if config.drop_first_return_edge else None,
             drop_mirrored=config.drop_first_return_edge,
+            shadow=(
+                make_shadow_db(g.log_compressed, g.dynamic_range_db)
+                if config.extended_objects
+                else None
+            ),
             along_track_beamwidth_deg=g.along_track_beamwidth_deg,
             class_of=class_of,
             prepare=make_sss_prepare(
