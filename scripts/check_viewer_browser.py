@@ -157,7 +157,7 @@ class Cdp:
         self.offline: list[str] = []
         self.notes: list[str] = []
 
-    def call(self, method: str, timeout_s: float = 120.0, **params) -> dict:
+    def call(self, method: str, timeout_s: float = 600.0, **params) -> dict:
         """Send one command and wait for its answer (handling events meanwhile)."""
         i = next(self.ids)
         self.ws.send(json.dumps({"id": i, "method": method, "params": params}))
