@@ -232,12 +232,18 @@ def page_problems(cdp: Cdp) -> list[str]:
     found = list(cdp.evaluate("window.__undersea_errors || []") or [])
     if cdp.evaluate("window._handle ? window._handle.has_panicked() : false"):
         found.append("rerun panicked: " + str(cdp.evaluate("window._handle.panic_message()")))
+    urls = {
+        e["params"]["requestId"]: e["params"]["request"]["url"]
+        for e in cdp.events
+        if e["method"] == "Network.requestWillBeSent"
+    }
     for e in cdp.events:
         m, p = e["method"], e.get("params", {})
         if m == "Log.entryAdded" and p["entry"]["level"] == "error":
             found.append("log: " + p["entry"].get("text", "") + " " + p["entry"].get("url", ""))
         elif m == "Network.loadingFailed" and not p.get("canceled"):
-            found.append("request failed: " + p.get("errorText", ""))
+            url = urls.get(p.get("requestId"), "?")
+            found.append(f"request failed: {p.get('errorText', '')} {p.get('type', '')} {url}")
     return [
         t[:300]
         for t in found
@@ -338,12 +344,16 @@ def error_badges(img: np.ndarray) -> list[tuple[int, int]]:
 
 
 def hover_screenshot(cdp: Cdp, x: int, y: int, out: Path) -> None:
-    """Move the mouse over (x, y), wait for the tooltip, save a screenshot to ``out``."""
+    """Move the mouse over (x, y) and click (rerun then lists the view's reports), save a
+    screenshot to ``out``."""
     import cv2
 
     cdp.call("Input.dispatchMouseEvent", type="mouseMoved", x=x, y=y)
     cdp.pump(4.0)
     cdp.call("Input.dispatchMouseEvent", type="mouseMoved", x=x + 1, y=y)
+    cdp.pump(4.0)
+    for kind in ("mousePressed", "mouseReleased"):  # opens the view's list of reports
+        cdp.call("Input.dispatchMouseEvent", type=kind, x=x, y=y, button="left", clickCount=1)
     cdp.pump(4.0)
     cv2.imwrite(str(out), cdp.screenshot())
 
