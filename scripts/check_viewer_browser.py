@@ -191,8 +191,8 @@ class Cdp:
 
     def _offline(self, p: dict) -> None:
         """Let requests to this machine through; answer those to other hosts (fonts, the
-        update check, telemetry) with 404, as an offline machine would, instead of a
-        network error in the page's console."""
+        update check, telemetry) with 404 (their CORS preflights with 204), as a server
+        that has nothing would, instead of a network error in the page's console."""
         url = p["request"]["url"]
         host = urllib.parse.urlsplit(url).hostname or ""
         params: dict = {"requestId": p["requestId"]}
@@ -201,11 +201,12 @@ class Cdp:
         else:
             self.offline.append(url)
             method = "Fetch.fulfillRequest"
-            params |= {
-                "responseCode": 404,
-                "body": "",
-                "responseHeaders": [{"name": "Access-Control-Allow-Origin", "value": "*"}],
-            }
+            preflight = p["request"].get("method") == "OPTIONS"
+            cors = [
+                {"name": f"Access-Control-Allow-{k}", "value": "*"}
+                for k in ("Origin", "Methods", "Headers")
+            ]
+            params |= {"responseCode": 204 if preflight else 404, "responseHeaders": cors}
         self.ws.send(json.dumps({"id": next(self.ids), "method": method, "params": params}))
 
     def evaluate(self, expr: str):
