@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 from pathlib import Path
 
@@ -99,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"--cell must be > 0 m, got {args.cell}")
         # folders: Humminbird recordings are found by their .DAT, not their .SON files
         files = expand_inputs(args.files, [s for s in SUFFIX_FORMATS if s != ".son"])
+        created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
     except (ValueError, OSError) as exc:
         print(f"undersea mosaic: {exc}", file=sys.stderr)
@@ -106,7 +108,10 @@ def run(args: argparse.Namespace) -> int:
     results, code = run_batch(
         files, lambda f: mosaic_one(f, out, args.cell, args.figures), command="mosaic"
     )
-    (out / "batch.json").write_text(json.dumps(results, indent=1))
+    if any(r["ok"] for r in results):
+        (out / "batch.json").write_text(json.dumps(results, indent=1))
+    elif created:  # nothing made: leave nothing behind
+        shutil.rmtree(out, ignore_errors=True)
     if args.json:
         print(json.dumps(results, indent=1))
     else:

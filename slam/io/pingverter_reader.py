@@ -149,6 +149,23 @@ def _beam_table(obj, work: str, beam: str, path: Path, fmt: str, source: Path):
     return df, Path(son)
 
 
+def pair_sides(port_df, stbd_df):
+    """The port and starboard rows of the same pings: matched on ``ping_number`` where the
+    format stores one (JSF; a ping whose other side was unreadable is dropped), else row
+    by row up to the shorter side. Returns both tables and the number of one-sided rows
+    dropped."""
+    if "ping_number" in port_df.columns and "ping_number" in stbd_df.columns:
+        p = port_df.drop_duplicates("ping_number").set_index("ping_number", drop=False)
+        s = stbd_df.drop_duplicates("ping_number").set_index("ping_number", drop=False)
+        both = p.index.intersection(s.index, sort=False)
+        port = p.loc[both].reset_index(drop=True)
+        stbd = s.loc[both].reset_index(drop=True)
+    else:
+        n = min(len(port_df), len(stbd_df))
+        port, stbd = port_df.iloc[:n], stbd_df.iloc[:n]
+    return port, stbd, max(len(port_df), len(stbd_df)) - len(port)
+
+
 def _sample_dtype(obj, df) -> np.dtype:
     """pingverter's own rule: a ``bytes_per_sample`` column, else ``sample_dtype``, else
     1 byte when ``son8bit``, else 2 (little-endian unsigned)."""
@@ -247,12 +264,19 @@ def read_pingverter(path: str | Path, fmt: str) -> SidescanRecording:
         obj = _parse_headers(parse, fmt, work, path)
         port_df, port_file = _beam_table(obj, work, _PORT, parse, fmt, path)
         stbd_df, stbd_file = _beam_table(obj, work, _STBD, parse, fmt, path)
-        n = min(len(port_df), len(stbd_df))
-        if n == 0:
-            raise RecordingError(f"{path}: the {fmt} recording holds no side-scan pings")
         if fmt == "jsf":
             _warn_jsf_tail(path, port_df, stbd_df)
-        port_df, stbd_df = port_df.iloc[:n], stbd_df.iloc[:n]
+        port_df, stbd_df, one_sided = pair_sides(port_df, stbd_df)
+        n = len(port_df)
+        if n == 0:
+            raise RecordingError(f"{path}: the {fmt} recording holds no side-scan pings")
+        if one_sided:
+            warnings.warn(
+                f"{path}: damaged {fmt} recording: kept {n} pings with both sides, dropped "
+                f"{one_sided} whose other side was unreadable",
+                TruncatedRecordingWarning,
+                stacklevel=2,
+            )
         dtype = _sample_dtype(obj, port_df)
         sides, complete = [], np.ones(n, dtype=bool)
         for df, file in ((port_df, port_file), (stbd_df, stbd_file)):

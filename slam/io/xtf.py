@@ -15,7 +15,9 @@ Pings whose sample count differs from the longest are zero-padded at the far-ran
 
 A truncated file: pyxtf reads the last, cut ping with fewer samples than its channel
 header's ``NumSamples`` (or fails inside its header). The intact pings before it are kept
-and a :class:`~slam.io.errors.TruncatedRecordingWarning` names both counts.
+and a :class:`~slam.io.errors.TruncatedRecordingWarning` names both counts. A ping whose
+declared record size exceeds the file (a damaged header: pyxtf then reads the rest of the
+file as that one packet) counts as cut the same way.
 """
 
 from __future__ import annotations
@@ -84,11 +86,17 @@ def _read_sonar_packets(path: Path):
     return file_header, pings, broken
 
 
-def _is_intact(ping) -> bool:
-    """Every channel holds the samples its channel header announces."""
-    return all(
-        len(d) == int(h.NumSamples) for d, h in zip(ping.data, ping.ping_chan_headers, strict=False)
-    ) and len(ping.data) > 0
+def _is_intact(ping, file_size: int) -> bool:
+    """Every channel holds the samples its channel header announces, and the packet's
+    declared size fits in the file (a larger one swallowed the packets after it)."""
+    return (
+        all(
+            len(d) == int(h.NumSamples)
+            for d, h in zip(ping.data, ping.ping_chan_headers, strict=False)
+        )
+        and len(ping.data) > 0
+        and int(getattr(ping, "NumBytesThisRecord", 0)) <= file_size
+    )
 
 
 def read_xtf(path: str | Path, *, channels: tuple[int, int] | None = None) -> Waterfall:
@@ -115,7 +123,8 @@ def read_xtf(path: str | Path, *, channels: tuple[int, int] | None = None) -> Wa
         raise RecordingError(f"XTF path {str(path)!r} is not a file")
     _check_header_bytes(path)
     file_header, pings, broken = _read_sonar_packets(path)
-    intact = [p for p in pings if _is_intact(p)]
+    size = path.stat().st_size
+    intact = [p for p in pings if _is_intact(p, size)]
     n_cut = len(pings) - len(intact) + int(broken is not None)
     if n_cut and not intact:
         raise RecordingError(
