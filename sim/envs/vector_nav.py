@@ -49,13 +49,21 @@ import numpy as np
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 
+from sim.envs import vector_kernel as VK
 from sim.envs.base import ENV_NAV_CONFIG, VEHICLE_CHOICES, NavEstimate
 from sim.envs.waypoint_nav import sample_waypoints, waypoint_observation
 from sim.frames import wxyz_from_euler
 from sim.navigation.batch import NavBatch
 from sim.world import SeabedSpec, VehicleSpec, WorldSpec, build_world
 from sim.world.seabed import Seabed
-from slam.pipeline.lagged import apply_increment
+
+_REWARD_TERMS = (
+    "reward_progress",
+    "reward_waypoint",
+    "reward_effort",
+    "reward_low_altitude",
+    "reward_collision",
+)
 
 
 class WaypointNavVectorEnv(VectorEnv):
@@ -143,42 +151,26 @@ class WaypointNavVectorEnv(VectorEnv):
         self._nav = NavBatch(ENV_NAV_CONFIG, n) if self.nav_sensors else None
         self._meas = np.zeros((n, 8))  # v (3), r, depth, alt, roll, pitch
         self._seabed_mj = _mujoco_seabed(w)
+        sx, sy = w.seabed.x, w.seabed.y
+        self._axes = np.array([sx[0], sx[1] - sx[0], sy[0], sy[1] - sy[0], sx[-1], sy[-1]])
 
     # ------------------------------------------------------------------ state ---------
-    def _altitudes(self, pos: np.ndarray) -> np.ndarray:
-        """Altitude (N,) of each vehicle over the seabed mesh (MuJoCo's vertices) below
-        it; beyond the mesh, over the nearest edge of the grid (``VehicleHandle.state``'s
-        fallback when its ray misses)."""
-        sb = self.world.seabed
-        xy = pos[:, :2]
-        inside = (
-            (xy[:, 0] >= sb.x[0])
-            & (xy[:, 0] <= sb.x[-1])
-            & (xy[:, 1] >= sb.y[0])
-            & (xy[:, 1] <= sb.y[-1])
-        )
-        z = np.where(inside, self._seabed_mj.height(xy), sb.height(xy))
-        return pos[:, 2] - z
-
     def _true(self) -> tuple[np.ndarray, ...]:
         """Positions (N,3), quaternions (N,4), body velocities (N,3), angular velocities
-        (N,3), altitudes (N,) of all vehicles now."""
-        d = self.world.data
-        q = d.qpos[self._qadr]
-        qv = d.qvel[self._vadr]
-        pos, quat = q[:, :3], q[:, 3:]
-        w_, x, y, z = quat.T
-        # body->world rotation of a unit quaternion (as mju_quat2Mat); v_body = Rᵀ v_world
-        R = np.stack(
-            [
-                np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w_ * z), 2 * (x * z + w_ * y)], -1),
-                np.stack([2 * (x * y + w_ * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w_ * x)], -1),
-                np.stack([2 * (x * z - w_ * y), 2 * (y * z + w_ * x), 1 - 2 * (x * x + y * y)], -1),
-            ],
-            1,
-        )
-        vb = np.einsum("nij,ni->nj", R, qv[:, :3])
-        return pos, quat, vb, qv[:, 3:], self._altitudes(pos)
+        (N,3), altitudes (N,) and (roll, pitch, yaw) (N,3) of all vehicles now (fresh
+        arrays). The altitude is over the seabed mesh (MuJoCo's vertices) below each
+        vehicle; beyond the mesh, over the nearest edge of the grid (``VehicleHandle.state``'s
+        fallback when its ray misses)."""
+        n, d = self.num_envs, self.world.data
+        pos, quat, vb, om, alt, rpy = (
+            np.empty((n, 3)), np.empty((n, 4)), np.empty((n, 3)), np.empty((n, 3)),
+            np.empty(n), np.empty((n, 3)),
+        )  # fmt: skip
+        VK.truth(
+            d.qpos, d.qvel, self._qadr, self._vadr, self._seabed_mj.z, self.world.seabed.z,
+            self._axes, pos, quat, vb, om, alt, rpy,
+        )  # fmt: skip
+        return pos, quat, vb, om, alt, rpy
 
     # ------------------------------------------------------------------ reset ---------
     def _reset_one(self, i: int, seed: int | None) -> None:
@@ -197,7 +189,7 @@ class WaypointNavVectorEnv(VectorEnv):
         self._t[i] = 0.0
         self._elapsed[i] = 0
         nav_seed = int(rng.integers(2**63))
-        pos, quat, vb, om, alts = self._true()
+        pos, quat, vb, om, alts, _ = self._true()
         if self._nav is not None:  # NavSuite(cfg, rng, t0) and its first poll
             self._nav.reset(i, np.random.default_rng(nav_seed), 0.0)
             one = np.arange(self.num_envs) == i
@@ -227,8 +219,8 @@ class WaypointNavVectorEnv(VectorEnv):
         for i, s in enumerate(seeds):
             self._reset_one(i, s)
         self._done[:] = False
-        pos, quat, vb, _, _ = self._true()
-        return self._obs(), self._info(pos, quat, vb, np.zeros(n, bool))
+        pos, _, vb, _, _, rpy = self._true()
+        return self._obs(), self._info(pos, rpy[:, 2], vb, np.zeros(n, bool))
 
     # ------------------------------------------------------------------ step ----------
     def step(self, actions):
@@ -251,30 +243,28 @@ class WaypointNavVectorEnv(VectorEnv):
         for _ in range(self.frame_skip):  # each env's clock, accumulated as d.time is
             self._t += dt
         self._elapsed += 1
-        pos, quat, vb, om, alt = self._true()
-        true_yaw = None
+        pos, quat, vb, om, alt, rpy = self._true()
         if self._nav is not None:
-            self._poll_nav(~resetting, pos, quat, vb, om, alt)
+            active = ~resetting
+            nav = self._nav
+            nav.poll(active, self._t, quat, vb, om, -pos[:, 2], alt)
+            delta = nav.odometry(active, self._t)
+            VK.merge_nav(active, nav.out, nav.reported, delta, self._meas, self._nav_pose)
         else:
-            roll, pitch, yaw = _euler(quat)
-            true_yaw = yaw
-            self._meas[:, 0:3] = vb
-            self._meas[:, 3] = om[:, 2]
-            self._meas[:, 4] = -pos[:, 2]
-            self._meas[:, 5] = alt
-            self._meas[:, 6] = roll
-            self._meas[:, 7] = pitch
-            self._nav_pose = np.column_stack([pos[:, 0], pos[:, 1], yaw])
-        collided = (alt < 0.3) | (pos[:, 2] > -0.2)
-        reward, terms = self._rewards(pos, alt, u, collided)
+            VK.ideal_nav(pos, vb, om, alt, rpy, self._meas, self._nav_pose)
+        terms, reward, collided = np.empty((n, 5)), np.empty(n), np.empty(n, bool)
+        VK.rewards(
+            pos, alt, u, self.waypoints, self._k, self._prev_dist, self.acceptance_radius,
+            terms, reward, collided,
+        )  # fmt: skip
         terminated = collided | (self._k >= self.n_waypoints)
         truncated = (
             np.zeros(n, bool)
             if self.max_episode_steps is None
             else self._elapsed >= self.max_episode_steps
         )
-        info = self._info(pos, quat, vb, collided, true_yaw)
-        info.update(terms)
+        info = self._info(pos, rpy[:, 2], vb, collided)
+        info.update(zip(_REWARD_TERMS, terms.T))
         info["action_clipped"] = clipped & ~resetting
         for i in np.flatnonzero(resetting):
             self._reset_one(i, None)
@@ -282,50 +272,9 @@ class WaypointNavVectorEnv(VectorEnv):
             reward[resetting] = 0.0
             terminated[resetting] = False
             truncated[resetting] = False
-            for key in terms:
-                info[key][resetting] = 0.0
+            terms[resetting] = 0.0
         self._done = terminated | truncated
         return self._obs(), reward, terminated, truncated, info
-
-    def _poll_nav(self, active, pos, quat, vb, om, alt) -> None:
-        """Nav-sensor path (``UnderseaEnv._advance``): the readings of this tick replace
-        the held ones where a sensor reported; the nav pose moves by the increment."""
-        nav = self._nav
-        nav.poll(active, self._t, quat, vb, om, -pos[:, 2], alt)
-        out, rep, m = nav.out, nav.reported, self._meas
-        m[:, 0:3] = np.where(rep[:, 2:3], out[:, 3:6], m[:, 0:3])  # DVL with lock
-        m[:, 3] = np.where(rep[:, 0], out[:, 2], m[:, 3])  # gyro z
-        m[:, 4] = np.where(rep[:, 3], out[:, 7], m[:, 4])  # depth
-        m[:, 5] = np.where(rep[:, 1], out[:, 6], m[:, 5])  # DVL altitude
-        m[:, 6:8] = np.where(rep[:, 4:5], out[:, 8:10], m[:, 6:8])  # AHRS roll, pitch
-        delta = nav.odometry(active, self._t)
-        moved = apply_increment(self._nav_pose.T, delta.T).T
-        self._nav_pose = np.where(active[:, None], moved, self._nav_pose)
-
-    def _rewards(self, pos, alt, u, collided) -> tuple[np.ndarray, dict]:
-        """``WaypointNavEnv._get_rew`` for all envs (same terms, same order of the sum)."""
-        n = self.num_envs
-        idx = np.arange(n)
-        k = np.minimum(self._k, self.n_waypoints - 1)
-        dist = np.linalg.norm(self.waypoints[idx, k] - pos, axis=1)
-        progress = self._prev_dist - dist
-        reached = dist < self.acceptance_radius
-        terms = {
-            "reward_progress": progress,
-            "reward_waypoint": np.where(reached, 10.0, 0.0),
-            "reward_effort": -(0.01 * np.sum(u**2, axis=1)),
-            "reward_low_altitude": -np.where(alt < 2.0, 1.0, 0.0),
-            "reward_collision": np.where(collided, -50.0, 0.0),
-        }
-        reward = 0.0
-        for v in terms.values():
-            reward = reward + v
-        self._k = self._k + reached
-        more = reached & (self._k < self.n_waypoints)
-        k2 = np.minimum(self._k, self.n_waypoints - 1)
-        dist = np.where(more, np.linalg.norm(self.waypoints[idx, k2] - pos, axis=1), dist)
-        self._prev_dist = dist
-        return reward, terms
 
     def _obs(self) -> np.ndarray:
         idx = np.arange(self.num_envs)
@@ -336,10 +285,9 @@ class WaypointNavVectorEnv(VectorEnv):
             self.n_waypoints - self._k,
         )  # fmt: skip
 
-    def _info(self, pos, quat, vb, collided, yaw=None) -> dict:
-        yaw = _euler(quat)[2] if yaw is None else yaw
+    def _info(self, pos, yaw, vb, collided) -> dict:
         return {
-            "true_position": pos.copy(),
+            "true_position": pos,
             "true_yaw": yaw,
             "true_velocity_body": vb,
             "nav_position_error_m": np.linalg.norm(self._nav_pose[:, :2] - pos[:, :2], axis=1),
@@ -363,16 +311,6 @@ def _build_positions(n: int, arena_size: float) -> list[tuple[float, float]]:
     side = int(np.ceil(np.sqrt(n)))
     g = (np.arange(side) - (side - 1) / 2) * min(20.0, 0.8 * arena_size / side)
     return [(float(g[i % side]), float(g[i // side])) for i in range(n)]
-
-
-def _euler(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(roll, pitch, yaw) (N,) of unit wxyz quaternions (N, 4): ``base._rpy`` vectorized."""
-    w, x, y, z = quat.T
-    return (
-        np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)),
-        np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0)),
-        np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)),
-    )
 
 
 def _mujoco_seabed(world) -> Seabed:

@@ -106,7 +106,7 @@ class NavBatch:
     ``poll`` then ``odometry`` once per control tick, as ``NavSuite.poll`` and
     ``NavSuite.odometry(t).delta``."""
 
-    def __init__(self, config: NavSuiteConfig, n: int, block: int = 128) -> None:
+    def __init__(self, config: NavSuiteConfig, n: int, block: int = 1024) -> None:
         _check_batchable(config)
         if int(n) < 1:
             raise ValueError(f"n = {n!r}; allowed: an integer >= 1 (vehicles)")

@@ -95,8 +95,8 @@ def _dt_since_last(S, i, k, t):
 
 
 @numba.njit(cache=True)
-def _rotvec(m):
-    """``sim.frames.rotvec_from_matrix`` of a (3, 3) matrix."""
+def _rotvec(m, v):
+    """``sim.frames.rotvec_from_matrix`` of a (3, 3) matrix into v (3,)."""
     tr = m[0, 0] + m[1, 1] + m[2, 2]
     k = 0  # max(range(4), key=...): the first index of the largest of m00, m11, m22, tr
     best = m[0, 0]
@@ -105,7 +105,6 @@ def _rotvec(m):
         if key > best:
             best = key
             k = j
-    v = np.empty(3)
     if k == 3:
         w = 0.5 * math.sqrt(1.0 + tr)
         f = 0.25 / w
@@ -126,17 +125,16 @@ def _rotvec(m):
     s = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
     if s < 1e-300:
         v[:] = 0.0
-        return v
+        return
     a = 2.0 * math.atan2(s, w) / s
     for j in range(3):
         v[j] = v[j] * a
-    return v
 
 
 @numba.njit(cache=True)
-def _imu(S, RP, ZI, CUR, CFG, i, t, R, omega, gyro):
+def _imu(S, RP, ZI, CUR, CFG, i, t, R, omega, gyro, work):
     """``IMU._sample``: the gyro (3,) into gyro; the accelerometer's draws are taken
-    and dropped (its output is not produced)."""
+    and dropped (its output is not produced). work (5, 3): scratch."""
     dt = _dt_since_last(S, i, 0, t)
     c = CUR[i, 0]
     if dt > 0:
@@ -150,14 +148,14 @@ def _imu(S, RP, ZI, CUR, CFG, i, t, R, omega, gyro):
             for j in range(3):
                 S[i, GM + j] = a * S[i, GM + j] + s * ZI[i, c + j]
             c += 3
-    om = np.empty(3)
+    om = work[0]
     if CFG[C_GYRO_AVG] > 0 and dt > 0 and not math.isnan(S[i, LAST]):
-        Rp = RP[i].reshape(3, 3)
-        D = np.empty((3, 3))
+        D = work[2:5]
         for r in range(3):
             for q in range(3):
-                D[r, q] = Rp[0, r] * R[0, q] + Rp[1, r] * R[1, q] + Rp[2, r] * R[2, q]
-        rv = _rotvec(D)
+                D[r, q] = RP[i, r] * R[0, q] + RP[i, 3 + r] * R[1, q] + RP[i, 6 + r] * R[2, q]
+        rv = work[1]
+        _rotvec(D, rv)
         for j in range(3):
             om[j] = rv[j] / dt
         sg = CFG[C_GYRO_DENS] / math.sqrt(dt)
@@ -165,8 +163,9 @@ def _imu(S, RP, ZI, CUR, CFG, i, t, R, omega, gyro):
         for j in range(3):
             om[j] = omega[j]
         sg = CFG[C_GYRO_DENS] * math.sqrt(CFG[C_IMU_RATE])
-    for j in range(9):
-        RP[i, j] = R.ravel()[j]
+    for r in range(3):
+        for q in range(3):
+            RP[i, 3 * r + q] = R[r, q]
     for j in range(3):
         gyro[j] = om[j] + S[i, GB + j] + S[i, GM + j] + sg * ZI[i, c + j]
     CUR[i, 0] = c + 6  # gyro noise, then the accelerometer's
@@ -325,6 +324,7 @@ def poll(active, t, quat, vb, omega, depth, alt, S, RP, DM, CFG, ZI, ZA, ZD, ZV,
     R = np.empty((3, 3))
     buf = np.empty(3)
     rp = np.empty(2)
+    work = np.empty((5, 3))
     for i in range(active.shape[0]):
         for j in range(5):
             REP[i, j] = False
@@ -333,7 +333,7 @@ def poll(active, t, quat, vb, omega, depth, alt, S, RP, DM, CFG, ZI, ZA, ZD, ZV,
         ti = t[i]
         roll, pitch = _quat_frames(quat[i], R)
         if _due(S, i, 0, ti, CFG[C_PERIOD]):
-            _imu(S, RP, ZI, CUR, CFG, i, ti, R, omega[i], OUT[i, 0:3])
+            _imu(S, RP, ZI, CUR, CFG, i, ti, R, omega[i], OUT[i, 0:3], work)
             REP[i, 0] = True
         if _due(S, i, 1, ti, CFG[C_PERIOD + 1]):
             REP[i, 1] = True
