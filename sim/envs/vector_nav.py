@@ -7,15 +7,15 @@ call per control step for all of them.
 Why one model with N vehicles (and not N MjData of one model): the compiled step of
 ``sim.physics_kernel`` then advances every vehicle with one call (one ``mj_step1`` /
 ``mj_step2`` pair per physics step for all N, the hydrodynamics of all N in one loop),
-and every per-vehicle quantity is a row of the same MjData arrays, read for all N with a
-handful of numpy operations. The vehicles do not see each other: vehicle–vehicle contacts
+and every per-vehicle quantity is a row of the same MjData arrays, read for all N in one
+compiled loop (``sim.envs.vector_kernel``). The vehicles do not see each other: vehicle–vehicle contacts
 are masked (conaffinity) and the vehicles' geoms are moved to geom group 3, outside the
 altitude ray's groups, so each vehicle's physics is that of a single-vehicle world. The
 altitude is the height over the seabed mesh below each vehicle, interpolated on MuJoCo's
 own (float32) copy of the mesh's vertices: what the single env's downward ``mj_ray``
-finds in a world without objects (to 1e-6 m: the ray's own arithmetic), at a fraction of
-a ray's cost (20 µs against the 20,000-triangle seabed). MuJoCo's per-body arithmetic does not depend on the other bodies,
-so each vehicle follows the same trajectory as in ``WaypointNavEnv`` with the same seed
+finds in a world without objects (to 1.3e-7 m: the ray's own arithmetic), at a fraction
+of a ray's cost (20 µs against the 20,000-triangle seabed). MuJoCo's per-body arithmetic
+does not depend on the other bodies, so each vehicle follows the same trajectory as in ``WaypointNavEnv`` with the same seed
 and actions (tests/sim/envs/test_vector_nav.py). (A seabed contact is solved jointly
 with other vehicles' contacts at the same step; episodes end at 0.3 m altitude, before
 the hull touches.)
@@ -29,7 +29,8 @@ its action; its vehicle is put back at the start after the physics of that step,
 starts where a fresh single env starts. Truncation at ``max_episode_steps`` (registered
 3000) as the TimeLimit wrapper does.
 
-Observations, rewards and terminations are numpy operations over all N. With
+State, altitudes, rewards and terminations are compiled loops over all N, the
+observation is ``waypoint_observation`` of the single env over N rows. With
 ``nav_sensors=True`` (default) the navigation of all N is ``sim.navigation.NavBatch``:
 each sub-env's sensors drawn from the generator its NavSuite would get, polled and
 dead-reckoned for all N in one compiled pass, as ``WaypointNavEnv`` does for one.
