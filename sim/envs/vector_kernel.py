@@ -13,6 +13,8 @@ import math
 
 import numba
 
+from sim.navigation.batch_kernel import wrap
+
 
 @numba.njit(cache=True)
 def _height(z, x0, dx, y0, dy, px, py):
@@ -68,12 +70,6 @@ def truth(qpos, qvel, qadr, vadr, z_mesh, z_grid, ax, pos, quat, vb, om, alt, rp
 
 
 @numba.njit(cache=True)
-def _wrap(a):
-    w = (a + math.pi) % (2.0 * math.pi) - math.pi
-    return math.pi if w == -math.pi else w
-
-
-@numba.njit(cache=True)
 def merge_nav(active, out, rep, delta, meas, nav_pose):
     """``UnderseaEnv._advance`` with a NavBatch, for the active rows: the readings
     reported this tick (out, rep of ``NavBatch``) replace the held measurements meas
@@ -97,7 +93,7 @@ def merge_nav(active, out, rep, delta, meas, nav_pose):
         d0, d1 = delta[i, 0], delta[i, 1]
         nav_pose[i, 0] = x + c * d0 - s * d1
         nav_pose[i, 1] = y + s * d0 + c * d1
-        nav_pose[i, 2] = _wrap(phi + delta[i, 2])
+        nav_pose[i, 2] = wrap(phi + delta[i, 2])
 
 
 @numba.njit(cache=True)

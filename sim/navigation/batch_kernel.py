@@ -290,7 +290,8 @@ def _add_dvl(S, i, t, v):
 
 
 @numba.njit(cache=True)
-def _wrap(a):
+def wrap(a):
+    """Angle a (rad) wrapped to (-π, π] (``slam.types.wrap_angle`` of one float)."""
     w = (a + math.pi) % (2.0 * math.pi) - math.pi
     return math.pi if w == -math.pi else w
 
@@ -371,7 +372,7 @@ def odometry(active, t, S, delta):
         _propagate(S, i, t[i])
         delta[i, 0] = S[i, P]
         delta[i, 1] = S[i, P + 1]
-        delta[i, 2] = _wrap(S[i, PHI])
+        delta[i, 2] = wrap(S[i, PHI])
         S[i, P] = 0.0
         S[i, P + 1] = 0.0
         S[i, PHI] = 0.0
