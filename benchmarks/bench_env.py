@@ -14,12 +14,16 @@ Cases, measured one after the other in one run, random actions, resets included:
                                (``frame_skip`` physics steps), the floor of the env.
 Targets (issue 6, this machine): WaypointNav >= 2,000 steps/s on one core; SonarSurvey
 with a sonar frame every step >= 200 steps/s. Issue 16 (ratios in one run): batch at
-64 >= 20x the single env of the same navigation mode; RSS < 2 GB at 64, no growth.
+64 >= 20x the single env of the same navigation mode; RSS < 2 GB at 64, no growth (both
+navigation modes); with ``--against TREE`` (another checkout, e.g. main) the single
+WaypointNav env of this tree >= 3x that tree's, measured in turn in this run (the other
+tree's in a subprocess with its own code).
 Single, batch and bare figures are CPU time of this thread; async is wall time.
 Wrappers are the registered ones (TimeLimit, OrderEnforcing, PassiveEnvChecker) as a
 user gets from ``gymnasium.make``.
 
     undersea bench env [--json] [--steps N] [--vec N] [--batch B] [--growth-steps S]
+                       [--against TREE]
 """
 
 from __future__ import annotations
@@ -28,10 +32,13 @@ import argparse
 import json
 import os
 import platform
+import subprocess
+import sys
 import time
 
 TARGETS = {"WaypointNav-v0": 2000.0, "SonarSurvey-v0": 200.0}
 BATCH_GOAL = 20.0  # batch aggregate steps/s over the single env's, same navigation mode
+SINGLE_GOAL = 3.0  # single WaypointNav steps/s over the --against tree's
 RSS_GOAL_MB = 2048.0
 
 
@@ -77,6 +84,22 @@ def _vector(env_id: str, n: int, steps: int, **kw) -> float:
     dt = time.perf_counter() - t0
     venv.close()
     return n * steps / dt
+
+
+def _single_in(tree: str, steps: int, **kw) -> float:
+    """``_single`` of WaypointNav-v0 run by another checkout's own code (a subprocess with
+    that tree first on the path)."""
+    code = (
+        "import json, sys; import sim.envs; from benchmarks.bench_env import _single; "
+        f"print(json.dumps(_single('undersea/WaypointNav-v0', {steps}, **{kw!r})))"
+    )
+    env = {**os.environ, "PYTHONPATH": tree}
+    r = subprocess.run(
+        [sys.executable, "-c", code], cwd=tree, env=env, capture_output=True, text=True
+    )
+    if r.returncode != 0:
+        raise SystemExit(f"--against {tree}: its WaypointNav run failed:\n{r.stderr[-2000:]}")
+    return float(r.stdout.strip().splitlines()[-1])
 
 
 def _rss_mb() -> float:
@@ -140,7 +163,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--growth-steps", type=int, default=100_000, help="env steps between the RSS readings"
     )
+    p.add_argument(
+        "--against",
+        metavar="TREE",
+        help="another checkout (e.g. main): its single WaypointNav env, measured in this run",
+    )
     a = p.parse_args(argv)
+    if a.against is not None and not os.path.isdir(os.path.join(a.against, "sim", "envs")):
+        print(
+            f"--against {a.against!r}: not a checkout of this project (no sim/envs)",
+            file=sys.stderr,
+        )
+        return 2
     n = a.steps
     res = {
         "WaypointNav-v0": _single("undersea/WaypointNav-v0", n),
@@ -160,7 +194,7 @@ def main(argv: list[str] | None = None) -> int:
     b = a.batch
     batch = {
         "ideal-nav": _batch(b, max(20, n // b * 4), a.growth_steps, nav_sensors=False),
-        "nav-sensors": _batch(b, max(3, n // (4 * b)), 0),
+        "nav-sensors": _batch(b, max(20, n // b * 4), a.growth_steps),
     }
     res[f"WaypointNav-v0 x{b} batch"] = batch["nav-sensors"]["steps_per_s"]
     res[f"WaypointNav-v0 x{b} batch ideal-nav"] = batch["ideal-nav"]["steps_per_s"]
@@ -171,11 +205,22 @@ def main(argv: list[str] | None = None) -> int:
         / res["WaypointNav-v0 ideal-nav"],
         "bare mj_step / single": res["bare mj_step (actions/s)"] / res["WaypointNav-v0"],
     }
+    if a.against is not None:  # the other tree's single env, right after this tree's
+        res["WaypointNav-v0 (--against)"] = _single_in(a.against, n)
+        res["WaypointNav-v0 ideal-nav (--against)"] = _single_in(a.against, n, nav_sensors=False)
+        ratios["single / --against single"] = (
+            res["WaypointNav-v0"] / res["WaypointNav-v0 (--against)"]
+        )
+        ratios["single ideal-nav / --against single ideal-nav"] = (
+            res["WaypointNav-v0 ideal-nav"] / res["WaypointNav-v0 ideal-nav (--against)"]
+        )
     rss = batch["ideal-nav"]
     out = {
         "ratios": ratios,
         "batch_goal": BATCH_GOAL,
         "rss_mb": rss,
+        "rss_mb_nav_sensors": batch["nav-sensors"],
+        "single_goal_vs_against": SINGLE_GOAL,
         "rss_goal_mb": RSS_GOAL_MB,
         "steps_per_s": {k: round(v, 1) for k, v in res.items()},
         "targets_steps_per_s": TARGETS,
@@ -195,12 +240,18 @@ def main(argv: list[str] | None = None) -> int:
             mark = "" if tgt is None else f"   target >= {tgt:.0f}: {'yes' if v >= tgt else 'NO'}"
             print(f"  {k:<40} {v:10.1f}{mark}")
         for k, v in ratios.items():
-            goal = f"   goal >= {BATCH_GOAL:g}x: {'yes' if v >= BATCH_GOAL else 'NO'}"
-            print(f"  ratio {k:<34} {v:8.2f}x{goal if 'batch' in k else ''}")
+            g = BATCH_GOAL if "batch" in k else SINGLE_GOAL if k.startswith("single /") else None
+            goal = "" if g is None else f"   goal >= {g:g}x: {'yes' if v >= g else 'NO'}"
+            print(f"  ratio {k:<44} {v:8.2f}x{goal}")
         print(
             f"  batch x{b} RSS {rss['rss_mb_start']:.0f} MB after warm-up, "
             f"{rss['rss_mb_end']:.0f} MB after {rss['env_steps_between_rss']} more env steps "
             f"(goal < {RSS_GOAL_MB:.0f} MB, no growth)"
+        )
+        r2 = batch["nav-sensors"]
+        print(
+            f"  batch x{b} nav sensors RSS {r2['rss_mb_start']:.0f} MB after warm-up, "
+            f"{r2['rss_mb_end']:.0f} MB after {r2['env_steps_between_rss']} more env steps"
         )
     return 0
 

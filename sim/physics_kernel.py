@@ -100,15 +100,17 @@ def _current(pos, t, cu, C, out):
 
 
 @numba.njit(cache=True)
-def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, S, f_out, acc):
+def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, S, f_out, acc, work):
     """One vehicle: body->world R (3,3), CG pos (3,), world velocity vw (3,), body angular
     velocity w (3,), world current cur (3,), external body wrench tau (6,), parameters p
     (37,), its thruster channels T[lo:hi] with their state S (4, k) rows command, level,
     force, decay (``ThrusterBank.state``). Advances the lag (level, force in place);
-    writes the world-frame xfrc_applied row f_out (6,) and ν̇* into acc (6,)."""
-    v = np.empty(3)
-    vr = np.empty(3)
-    ez = np.empty(3)
+    writes the world-frame xfrc_applied row f_out (6,) and ν̇* into acc (6,). work (5, 6)
+    is scratch memory (no allocation per call: an allocation costs more than the
+    arithmetic)."""
+    v = work[0]
+    vr = work[1]
+    ez = work[2]
     for j in range(3):
         v[j] = R[0, j] * vw[0] + R[1, j] * vw[1] + R[2, j] * vw[2]
         vc_j = R[0, j] * cur[0] + R[1, j] * cur[1] + R[2, j] * cur[2]
@@ -116,7 +118,8 @@ def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, S, f_out, acc):
         ez[j] = R[2, j]
     nur = (vr[0], vr[1], vr[2], w[0], w[1], w[2])
     # thrusters (sim.thrusters.ThrusterBank.step)
-    tt = np.zeros(6)
+    tt = work[3]
+    tt[:] = 0.0
     au = abs(vr[0])
     for ch in range(lo, hi):
         c = S[0, ch]
@@ -147,7 +150,7 @@ def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, S, f_out, acc):
     c4 = _cross(w[0], w[1], w[2], p[3] * w[0], p[4] * w[1], p[5] * w[2])  # ω × (I ω)
     c5 = _cross(p[30], p[31], p[32], fb * ez[0], fb * ez[1], fb * ez[2])  # r_B × f_B
     c6 = _cross(w[0], w[1], w[2], v[0] - vr[0], v[1] - vr[1], v[2] - vr[2])  # ω × v_c
-    f = np.empty(6)
+    f = work[4]
     for j in range(3):
         damp = (p[18 + j] + p[24 + j] * abs(nur[j])) * nur[j]
         rhs = tau[j] + tt[j] - damp + (fb - W) * ez[j] - c0[j] - c1[j] - p[6 + j] * c6[j]
@@ -170,10 +173,11 @@ def _vehicle(R, pos, vw, w, cur, tau, p, T, lo, hi, S, f_out, acc):
 def wrench_batch(rot, pos, vel, omega, cur, tau, P, T, offsets, S, out, acc):
     """``_vehicle`` for stacked states: rot (N,3,3), pos/vel/omega/cur (N,3), tau (N,6);
     out, acc (N,6) written. The numpy-facing entry (``HydroBatch.body_wrench``)."""
+    work = np.empty((5, 6))
     for i in range(P.shape[0]):
         _vehicle(
             rot[i], pos[i], vel[i], omega[i], cur[i], tau[i], P[i], T,
-            offsets[i], offsets[i + 1], S, out[i], acc[i],
+            offsets[i], offsets[i + 1], S, out[i], acc[i], work,
         )  # fmt: skip
 
 
@@ -188,6 +192,7 @@ def step_world(addr, n, t0, dt, xmat, xpos, qvel, xfrc, ids, tau, P, T, offsets,
     has rows. Returns the time after the steps as MuJoCo accumulates it, or NaN when a
     velocity is not finite at the end."""
     cur = np.zeros(3)
+    work = np.empty((5, 6))
     t = t0
     varying = C.shape[0] > 0
     for _ in range(n):
@@ -203,7 +208,7 @@ def step_world(addr, n, t0, dt, xmat, xpos, qvel, xfrc, ids, tau, P, T, offsets,
                 cur[2] = cu[2]
             _vehicle(
                 xmat[b].reshape(3, 3), xpos[b], qvel[q : q + 3], qvel[q + 3 : q + 6], cur,
-                tau[i], P[i], T, offsets[i], offsets[i + 1], S, xfrc[b], acc[i],
+                tau[i], P[i], T, offsets[i], offsets[i + 1], S, xfrc[b], acc[i], work,
             )  # fmt: skip
         _call_mj(addr[1], addr[2], addr[3])
         t += dt

@@ -29,6 +29,7 @@ growing (the cross-flow drag of the hull takes over).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,13 +124,16 @@ class ThrusterBank:
         self.decay[:] = np.exp(-float(dt) / self.tc)
 
     def set_commands(self, vehicle: int, u: np.ndarray) -> None:
-        lo, hi = self.offsets[vehicle], self.offsets[vehicle + 1]
-        u = np.asarray(u, dtype=float).reshape(-1)
-        if u.shape != (hi - lo,) or not np.isfinite(u).all():
+        lo, hi = int(self.offsets[vehicle]), int(self.offsets[vehicle + 1])
+        # a handful of channels: Python floats are cheaper than numpy calls per element
+        vals = np.asarray(u, dtype=float).reshape(-1).tolist()
+        if len(vals) != hi - lo or not all(math.isfinite(v) for v in vals):
             raise ValueError(
                 f"thruster commands must be {hi - lo} finite numbers in [-1, 1], got {u!r}"
             )
-        self.command[lo:hi] = np.minimum(np.maximum(u, -1.0), 1.0)  # finite: same as clip
+        c = self.command
+        for j, v in enumerate(vals):
+            c[lo + j] = min(max(v, -1.0), 1.0)  # finite: the same as np.clip
 
     def step(self, nu_r: np.ndarray | None) -> np.ndarray:
         """Advance the lag one step; return the per-vehicle body wrench (N, 6).

@@ -82,6 +82,8 @@ class ActiveSLAMEnv(UnderseaEnv):
     v0: first version.
     """
 
+    ODOMETRY_COVARIANCE = True  # its SLAM predict reads NavSuite.odometry(t).cov
+
     def __init__(
         self,
         vehicle: str = "alister9",
@@ -230,7 +232,9 @@ class ActiveSLAMEnv(UnderseaEnv):
         inc = self._last_inc
         self.slam.add_odometry(Odometry(inc.delta, inc.cov, inc.t))
         ping = self.sonar.ping(self.world.data, self._sonar_rng)
-        pose_true = np.array([st.position[0], st.position[1], float(self.true_info(st)["true_yaw"])])
+        pose_true = np.array(
+            [st.position[0], st.position[1], float(self.true_info(st)["true_yaw"])]
+        )
         frame = SonarFrame(
             "sss",
             ping.intensity,

@@ -4,7 +4,10 @@ Every env owns one MuJoCo world (sim.world) with one vehicle, that vehicle's nav
 suite (sim.navigation) and a dead-reckoned nav pose; the agent commands the vehicle's
 actuators directly. Actions: ``Box(-1, 1, (n_actuators,), float32)`` = the normalized
 commands of ``VehicleHandle.thruster_names`` (propellers, and for torpedo AUVs the fin
-pairs), held for one control step. Bad actions: a non-finite entry raises ValueError
+pairs), held for one control step. Navigation: the sensors of ``ENV_NAV_CONFIG``; envs
+that read only the navigation estimate (not the odometry covariance) run them as
+``sim.navigation.NavBatch`` of one vehicle (same readings and dead-reckoned pose as a
+NavSuite, without its covariance propagation), the others as a NavSuite. Bad actions: a non-finite entry raises ValueError
 (rejected before anything reaches the physics); finite values outside [-1, 1] are
 clipped and ``info["action_clipped"]`` says so.
 """
@@ -19,11 +22,16 @@ import gymnasium as gym
 import numpy as np
 
 from sim.frames import euler_from_wxyz, wxyz_from_euler
+from sim.navigation import IMUConfig, NavSuite, NavSuiteConfig
+from sim.navigation.batch import NavBatch
 from sim.viz.meshes import vehicle_body_mesh
 from sim.world.vehicles import VEHICLE_KINDS
 from slam.pipeline.lagged import apply_increment
 
 VEHICLE_CHOICES = VEHICLE_KINDS  # the vehicles sim.world defines
+# tactical-grade IMU (FOG), as an AUV of this class carries; the consumer-MEMS default
+# drifts ~0.3 deg/s in heading
+ENV_NAV_CONFIG = NavSuiteConfig(imu=IMUConfig.preset("tactical"))
 
 
 @dataclass(frozen=True)
@@ -47,6 +55,9 @@ class UnderseaEnv(gym.Env):
     """Base class; see the concrete envs for the manual."""
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 10}
+    # True: the env reads NavSuite.odometry's covariance (``_last_inc``), so it runs a
+    # NavSuite; False: NavBatch of one vehicle
+    ODOMETRY_COVARIANCE: ClassVar[bool] = False
 
     def __init__(
         self,
@@ -116,21 +127,20 @@ class UnderseaEnv(gym.Env):
             )
 
     def _reset_world(self, start_xyz: np.ndarray, yaw: float) -> None:
-        from sim.navigation import IMUConfig, NavSuite, NavSuiteConfig
-
         self._check_open()
         self.world.reset()
         self.vehicle.set_pose(start_xyz, wxyz_from_euler(0.0, 0.0, yaw))
         self.vehicle.set_thruster_commands(np.zeros(self.n_actuators))
         self._last_u = np.zeros(self.n_actuators)
         st = self.vehicle.state()
-        nav_seed = int(self.np_random.integers(2**63))
-        # tactical-grade IMU (FOG), as an AUV of this class carries; the consumer-MEMS
-        # default drifts ~0.3 deg/s in heading
-        cfg = NavSuiteConfig(imu=IMUConfig.preset("tactical"))
-        self.nav = (
-            NavSuite(cfg, np.random.default_rng(nav_seed), t0=st.t) if self.nav_sensors else None
-        )
+        nav_rng = np.random.default_rng(int(self.np_random.integers(2**63)))
+        if not self.nav_sensors:
+            self.nav = None
+        elif self.ODOMETRY_COVARIANCE:
+            self.nav = NavSuite(ENV_NAV_CONFIG, nav_rng, t0=st.t)
+        else:
+            self.nav = NavBatch(ENV_NAV_CONFIG, 1)
+            self.nav.reset(0, nav_rng, st.t)
         self._nav_pose = np.array([start_xyz[0], start_xyz[1], yaw], float)
         self._nav_meas = {
             "v": np.zeros(3),
@@ -140,7 +150,7 @@ class UnderseaEnv(gym.Env):
             "rp": (0.0, 0.0),
         }
         if self.nav is not None:
-            self.nav.poll(st)
+            self._poll(st)
         self._trail = [st.position[:2].copy()]
         if self.record_path is not None and self._rec is None:
             self._open_recording()
@@ -174,6 +184,9 @@ class UnderseaEnv(gym.Env):
             self._nav_pose = np.array([st.position[0], st.position[1], yaw])
             self._trail.append(st.position[:2].copy())
             return st
+        if isinstance(self.nav, NavBatch):
+            self._advance_nav_batch(st)
+            return st
         r = self.nav.poll(st)
         if r.dvl:
             m = r.dvl[-1]
@@ -193,6 +206,37 @@ class UnderseaEnv(gym.Env):
         if len(self._trail) > 5000:
             self._trail = self._trail[-5000:]
         return st
+
+    def _poll(self, st):
+        """Poll the navigation (NavSuite or NavBatch) with the true state st."""
+        if not isinstance(self.nav, NavBatch):
+            return self.nav.poll(st)
+        one = np.ones(1, bool)
+        self.nav.poll(
+            one, np.array([st.t]), st.quat_wxyz[None], st.velocity_body[None],
+            st.angular_velocity_body[None], np.array([st.depth]), np.array([st.altitude]),
+        )  # fmt: skip
+        return None
+
+    def _advance_nav_batch(self, st) -> None:
+        """``_advance``'s navigation with a NavBatch of one: the same readings and pose."""
+        self._poll(st)
+        out, rep, m = self.nav.out[0], self.nav.reported[0], self._nav_meas
+        if rep[1]:  # DVL ping
+            if rep[2]:
+                m["v"] = out[3:6].copy()
+            m["alt"] = float(out[6])
+        if rep[0]:
+            m["r"] = float(out[2])
+        if rep[3]:
+            m["depth"] = float(out[7])
+        if rep[4]:
+            m["rp"] = (float(out[8]), float(out[9]))
+        delta = self.nav.odometry(np.ones(1, bool), np.array([st.t]))[0]
+        self._nav_pose = apply_increment(self._nav_pose, delta)
+        self._trail.append(st.position[:2].copy())
+        if len(self._trail) > 5000:
+            self._trail = self._trail[-5000:]
 
     def nav_estimate(self) -> NavEstimate:
         m = self._nav_meas
@@ -283,7 +327,9 @@ class UnderseaEnv(gym.Env):
 
         mesh = vehicle_body_mesh(self.world.model, self.world.data, self.vehicle.body_id)
         if mesh is not None:
-            L.log_vehicle_mesh(self._rec, self.vehicle.name, mesh[0], mesh[1], vertex_colors=mesh[2])
+            L.log_vehicle_mesh(
+                self._rec, self.vehicle.name, mesh[0], mesh[1], vertex_colors=mesh[2]
+            )
         if self.world.objects:
             L.log_objects(
                 self._rec,

@@ -7,12 +7,15 @@ call per control step for all of them.
 Why one model with N vehicles (and not N MjData of one model): the compiled step of
 ``sim.physics_kernel`` then advances every vehicle with one call (one ``mj_step1`` /
 ``mj_step2`` pair per physics step for all N, the hydrodynamics of all N in one loop),
-and every per-vehicle quantity is a row of the same MjData arrays, read for all N with a
-handful of numpy operations. The vehicles do not see each other: vehicle–vehicle contacts
+and every per-vehicle quantity is a row of the same MjData arrays, read for all N in one
+compiled loop (``sim.envs.vector_kernel``). The vehicles do not see each other: vehicle–vehicle contacts
 are masked (conaffinity) and the vehicles' geoms are moved to geom group 3, outside the
-altitude ray's groups, so each vehicle's physics and its altitude ray are those of a
-single-vehicle world. MuJoCo's per-body arithmetic does not depend on the other bodies,
-so each vehicle follows the same trajectory as in ``WaypointNavEnv`` with the same seed
+altitude ray's groups, so each vehicle's physics is that of a single-vehicle world. The
+altitude is the height over the seabed mesh below each vehicle, interpolated on MuJoCo's
+own (float32) copy of the mesh's vertices: what the single env's downward ``mj_ray``
+finds in a world without objects (to 1.3e-7 m: the ray's own arithmetic), at a fraction
+of a ray's cost (20 µs against the 20,000-triangle seabed). MuJoCo's per-body arithmetic
+does not depend on the other bodies, so each vehicle follows the same trajectory as in ``WaypointNavEnv`` with the same seed
 and actions (tests/sim/envs/test_vector_nav.py). (A seabed contact is solved jointly
 with other vehicles' contacts at the same step; episodes end at 0.3 m altitude, before
 the hull touches.)
@@ -26,10 +29,11 @@ its action; its vehicle is put back at the start after the physics of that step,
 starts where a fresh single env starts. Truncation at ``max_episode_steps`` (registered
 3000) as the TimeLimit wrapper does.
 
-With ``nav_sensors=False`` (ideal navigation) observations, rewards and terminations are
-numpy operations over all N. With ``nav_sensors=True`` each sub-env polls its own
-``sim.navigation.NavSuite`` (per-env Python, as in the single env): correct, but the
-batch then runs at about the single env's rate per vehicle.
+State, altitudes, rewards and terminations are compiled loops over all N, the
+observation is ``waypoint_observation`` of the single env over N rows. With
+``nav_sensors=True`` (default) the navigation of all N is ``sim.navigation.NavBatch``:
+each sub-env's sensors drawn from the generator its NavSuite would get, polled and
+dead-reckoned for all N in one compiled pass, as ``WaypointNavEnv`` does for one.
 
 Observation (N, 17), action (N, n_actuators), rewards and ``info`` terms: as
 ``WaypointNavEnv`` (its docstring is the manual); ``info`` holds arrays over the N envs.
@@ -46,15 +50,21 @@ import numpy as np
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 
-from sim.envs.base import VEHICLE_CHOICES, NavEstimate
+from sim.envs import vector_kernel as VK
+from sim.envs.base import ENV_NAV_CONFIG, VEHICLE_CHOICES, NavEstimate
 from sim.envs.waypoint_nav import sample_waypoints, waypoint_observation
 from sim.frames import wxyz_from_euler
-from sim.navigation import IMUConfig, NavSuite, NavSuiteConfig
+from sim.navigation.batch import NavBatch
 from sim.world import SeabedSpec, VehicleSpec, WorldSpec, build_world
-from slam.pipeline.lagged import apply_increment
+from sim.world.seabed import Seabed
 
-_DOWN = np.array([0.0, 0.0, -1.0])
-_RAY_GROUPS = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)
+_REWARD_TERMS = (
+    "reward_progress",
+    "reward_waypoint",
+    "reward_effort",
+    "reward_low_altitude",
+    "reward_collision",
+)
 
 
 class WaypointNavVectorEnv(VectorEnv):
@@ -139,45 +149,29 @@ class WaypointNavVectorEnv(VectorEnv):
         self._elapsed = np.zeros(n, dtype=np.int64)
         self._done = np.zeros(n, dtype=bool)
         self._nav_pose = np.zeros((n, 3))
-        self._navs: list[NavSuite | None] = [None] * n
-        self._meas = np.zeros((n, 9))  # v (3), r, depth, alt, roll, pitch, (unused)
-        self._ray_gid = np.zeros(1, dtype=np.int32)
+        self._nav = NavBatch(ENV_NAV_CONFIG, n) if self.nav_sensors else None
+        self._meas = np.zeros((n, 8))  # v (3), r, depth, alt, roll, pitch
+        self._seabed_mj = _mujoco_seabed(w)
+        sx, sy = w.seabed.x, w.seabed.y
+        self._axes = np.array([sx[0], sx[1] - sx[0], sy[0], sy[1] - sy[0], sx[-1], sy[-1]])
 
     # ------------------------------------------------------------------ state ---------
-    def _rays(self, pos: np.ndarray) -> np.ndarray:
-        """Altitude (N,) of each vehicle: the downward ray of ``VehicleHandle.state``."""
-        w = self.world
-        out = np.empty(len(pos))
-        for i, h in enumerate(self.vehicles):
-            dist = mujoco.mj_ray(
-                w.model, w.data, pos[i], _DOWN, _RAY_GROUPS, 1, h.body_id, self._ray_gid
-            )
-            out[i] = dist if dist >= 0 else pos[i, 2] - w.seabed_height(pos[i : i + 1, :2])[0]
-        return out
-
     def _true(self) -> tuple[np.ndarray, ...]:
         """Positions (N,3), quaternions (N,4), body velocities (N,3), angular velocities
-        (N,3), altitudes (N,) of all vehicles now."""
-        d = self.world.data
-        q = d.qpos[self._qadr]
-        qv = d.qvel[self._vadr]
-        pos, quat = q[:, :3], q[:, 3:]
-        w_, x, y, z = quat.T
-        # body->world rotation of a unit quaternion (as mju_quat2Mat); v_body = Rᵀ v_world
-        R = np.stack(
-            [
-                np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w_ * z), 2 * (x * z + w_ * y)], -1),
-                np.stack([2 * (x * y + w_ * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w_ * x)], -1),
-                np.stack([2 * (x * z - w_ * y), 2 * (y * z + w_ * x), 1 - 2 * (x * x + y * y)], -1),
-            ],
-            1,
-        )
-        vb = np.einsum("nij,ni->nj", R, qv[:, :3])
-        return pos, quat, vb, qv[:, 3:], self._rays(pos)
-
-    def _state_of(self, i: int):
-        """``VehicleState`` of env i on its own clock (the nav-sensor path)."""
-        return dataclasses.replace(self.vehicles[i].state(), t=float(self._t[i]))
+        (N,3), altitudes (N,) and (roll, pitch, yaw) (N,3) of all vehicles now (fresh
+        arrays). The altitude is over the seabed mesh (MuJoCo's vertices) below each
+        vehicle; beyond the mesh, over the nearest edge of the grid (``VehicleHandle.state``'s
+        fallback when its ray misses)."""
+        n, d = self.num_envs, self.world.data
+        pos, quat, vb, om, alt, rpy = (
+            np.empty((n, 3)), np.empty((n, 4)), np.empty((n, 3)), np.empty((n, 3)),
+            np.empty(n), np.empty((n, 3)),
+        )  # fmt: skip
+        VK.truth(
+            d.qpos, d.qvel, self._qadr, self._vadr, self._seabed_mj.z, self.world.seabed.z,
+            self._axes, pos, quat, vb, om, alt, rpy,
+        )  # fmt: skip
+        return pos, quat, vb, om, alt, rpy
 
     # ------------------------------------------------------------------ reset ---------
     def _reset_one(self, i: int, seed: int | None) -> None:
@@ -196,14 +190,12 @@ class WaypointNavVectorEnv(VectorEnv):
         self._t[i] = 0.0
         self._elapsed[i] = 0
         nav_seed = int(rng.integers(2**63))
-        if self.nav_sensors:
-            st = self._state_of(i)
-            cfg = NavSuiteConfig(imu=IMUConfig.preset("tactical"))
-            self._navs[i] = NavSuite(cfg, np.random.default_rng(nav_seed), t0=st.t)
-            self._navs[i].poll(st)
-            alt = st.altitude
-        else:
-            alt = self._true()[4][i]
+        pos, quat, vb, om, alts, _ = self._true()
+        if self._nav is not None:  # NavSuite(cfg, rng, t0) and its first poll
+            self._nav.reset(i, np.random.default_rng(nav_seed), 0.0)
+            one = np.arange(self.num_envs) == i
+            self._nav.poll(one, self._t, quat, vb, om, -pos[:, 2], alts)
+        alt = alts[i]
         self._nav_pose[i] = (self._start[0], self._start[1], yaw)
         self._meas[i, :8] = (0.0, 0.0, 0.0, 0.0, -self._start[2], alt, 0.0, 0.0)
         self.waypoints[i] = sample_waypoints(
@@ -228,8 +220,8 @@ class WaypointNavVectorEnv(VectorEnv):
         for i, s in enumerate(seeds):
             self._reset_one(i, s)
         self._done[:] = False
-        pos, quat, vb, _, _ = self._true()
-        return self._obs(), self._info(pos, quat, vb, np.zeros(n, bool))
+        pos, _, vb, _, _, rpy = self._true()
+        return self._obs(), self._info(pos, rpy[:, 2], vb, np.zeros(n, bool))
 
     # ------------------------------------------------------------------ step ----------
     def step(self, actions):
@@ -252,30 +244,28 @@ class WaypointNavVectorEnv(VectorEnv):
         for _ in range(self.frame_skip):  # each env's clock, accumulated as d.time is
             self._t += dt
         self._elapsed += 1
-        pos, quat, vb, om, alt = self._true()
-        true_yaw = None
-        if self.nav_sensors:
-            self._poll_nav(~resetting)
+        pos, quat, vb, om, alt, rpy = self._true()
+        if self._nav is not None:
+            active = ~resetting
+            nav = self._nav
+            nav.poll(active, self._t, quat, vb, om, -pos[:, 2], alt)
+            delta = nav.odometry(active, self._t)
+            VK.merge_nav(active, nav.out, nav.reported, delta, self._meas, self._nav_pose)
         else:
-            roll, pitch, yaw = _euler(quat)
-            true_yaw = yaw
-            self._meas[:, 0:3] = vb
-            self._meas[:, 3] = om[:, 2]
-            self._meas[:, 4] = -pos[:, 2]
-            self._meas[:, 5] = alt
-            self._meas[:, 6] = roll
-            self._meas[:, 7] = pitch
-            self._nav_pose = np.column_stack([pos[:, 0], pos[:, 1], yaw])
-        collided = (alt < 0.3) | (pos[:, 2] > -0.2)
-        reward, terms = self._rewards(pos, alt, u, collided)
+            VK.ideal_nav(pos, vb, om, alt, rpy, self._meas, self._nav_pose)
+        terms, reward, collided = np.empty((n, 5)), np.empty(n), np.empty(n, bool)
+        VK.rewards(
+            pos, alt, u, self.waypoints, self._k, self._prev_dist, self.acceptance_radius,
+            terms, reward, collided,
+        )  # fmt: skip
         terminated = collided | (self._k >= self.n_waypoints)
         truncated = (
             np.zeros(n, bool)
             if self.max_episode_steps is None
             else self._elapsed >= self.max_episode_steps
         )
-        info = self._info(pos, quat, vb, collided, true_yaw)
-        info.update(terms)
+        info = self._info(pos, rpy[:, 2], vb, collided)
+        info.update(zip(_REWARD_TERMS, terms.T))
         info["action_clipped"] = clipped & ~resetting
         for i in np.flatnonzero(resetting):
             self._reset_one(i, None)
@@ -283,55 +273,9 @@ class WaypointNavVectorEnv(VectorEnv):
             reward[resetting] = 0.0
             terminated[resetting] = False
             truncated[resetting] = False
-            for key in terms:
-                info[key][resetting] = 0.0
+            terms[resetting] = 0.0
         self._done = terminated | truncated
         return self._obs(), reward, terminated, truncated, info
-
-    def _poll_nav(self, active: np.ndarray) -> None:
-        """Nav-sensor path, per env (``UnderseaEnv._advance``)."""
-        for i in np.flatnonzero(active):
-            st = self._state_of(i)
-            nav = self._navs[i]
-            r = nav.poll(st)
-            m = self._meas[i]
-            if r.dvl:
-                dv = r.dvl[-1]
-                if dv.valid:
-                    m[0:3] = dv.velocity_body
-                m[5] = dv.altitude
-            if r.imu:
-                m[3] = r.imu[-1].gyro[2]
-            if r.depth:
-                m[4] = r.depth[-1].depth
-            if r.ahrs:
-                m[6], m[7] = r.ahrs[-1].roll, r.ahrs[-1].pitch
-            self._nav_pose[i] = apply_increment(self._nav_pose[i], nav.odometry(st.t).delta)
-
-    def _rewards(self, pos, alt, u, collided) -> tuple[np.ndarray, dict]:
-        """``WaypointNavEnv._get_rew`` for all envs (same terms, same order of the sum)."""
-        n = self.num_envs
-        idx = np.arange(n)
-        k = np.minimum(self._k, self.n_waypoints - 1)
-        dist = np.linalg.norm(self.waypoints[idx, k] - pos, axis=1)
-        progress = self._prev_dist - dist
-        reached = dist < self.acceptance_radius
-        terms = {
-            "reward_progress": progress,
-            "reward_waypoint": np.where(reached, 10.0, 0.0),
-            "reward_effort": -(0.01 * np.sum(u**2, axis=1)),
-            "reward_low_altitude": -np.where(alt < 2.0, 1.0, 0.0),
-            "reward_collision": np.where(collided, -50.0, 0.0),
-        }
-        reward = 0.0
-        for v in terms.values():
-            reward = reward + v
-        self._k = self._k + reached
-        more = reached & (self._k < self.n_waypoints)
-        k2 = np.minimum(self._k, self.n_waypoints - 1)
-        dist = np.where(more, np.linalg.norm(self.waypoints[idx, k2] - pos, axis=1), dist)
-        self._prev_dist = dist
-        return reward, terms
 
     def _obs(self) -> np.ndarray:
         idx = np.arange(self.num_envs)
@@ -342,10 +286,9 @@ class WaypointNavVectorEnv(VectorEnv):
             self.n_waypoints - self._k,
         )  # fmt: skip
 
-    def _info(self, pos, quat, vb, collided, yaw=None) -> dict:
-        yaw = _euler(quat)[2] if yaw is None else yaw
+    def _info(self, pos, yaw, vb, collided) -> dict:
         return {
-            "true_position": pos.copy(),
+            "true_position": pos,
             "true_yaw": yaw,
             "true_velocity_body": vb,
             "nav_position_error_m": np.linalg.norm(self._nav_pose[:, :2] - pos[:, :2], axis=1),
@@ -371,11 +314,15 @@ def _build_positions(n: int, arena_size: float) -> list[tuple[float, float]]:
     return [(float(g[i % side]), float(g[i // side])) for i in range(n)]
 
 
-def _euler(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(roll, pitch, yaw) (N,) of unit wxyz quaternions (N, 4): ``base._rpy`` vectorized."""
-    w, x, y, z = quat.T
-    return (
-        np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)),
-        np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0)),
-        np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)),
-    )
+def _mujoco_seabed(world) -> Seabed:
+    """The world's seabed with the heights of MuJoCo's copy of its mesh (vertices stored
+    in float32 in the mesh's principal frame), in world z: the surface ``mj_ray`` hits."""
+    m, d = world.model, world.data
+    g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "seabed")
+    k = m.geom_dataid[g]
+    v = m.mesh_vert[m.mesh_vertadr[k] : m.mesh_vertadr[k] + m.mesh_vertnum[k]].astype(float)
+    z = (v @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g])[:, 2]
+    sb = world.seabed
+    if z.size != sb.z.size:  # not one vertex per grid node: MuJoCo merged some
+        return sb
+    return dataclasses.replace(sb, z=z.reshape(sb.z.shape))
