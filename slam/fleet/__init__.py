@@ -11,6 +11,7 @@ from slam.fleet.fusion import (
     VehicleMap,
     fuse_maps,
     solve_fused,
+    vehicle_map_from,
 )
 
 __all__ = [
@@ -22,4 +23,5 @@ __all__ = [
     "fuse_maps",
     "pair_maps",
     "solve_fused",
+    "vehicle_map_from",
 ]

@@ -39,9 +39,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from slam.estimators.aekf import AEKFSlam
 from slam.fleet.association import pair_maps
 
-__all__ = ["FleetFusionConfig", "FusedMap", "GpsFix", "VehicleMap", "fuse_maps", "solve_fused"]
+__all__ = [
+    "FleetFusionConfig",
+    "FusedMap",
+    "GpsFix",
+    "VehicleMap",
+    "fuse_maps",
+    "solve_fused",
+    "vehicle_map_from",
+]
 
 
 def _wrap(a):
@@ -425,3 +434,25 @@ def fuse_maps(
             n_ambiguous=n_ambiguous,
         )
     return fused
+
+
+def vehicle_map_from(estimator, name: str = "") -> tuple[VehicleMap, bool]:
+    """A vehicle's map in the world frame from its estimator, and whether its covariance is
+    the joint one: the AEKF's full ``(x, P)``, the sub-map AEKF's joined global map; for
+    other estimators (FastSLAM, iSAM2, robocentric) the pose and landmark marginals
+    side by side, their cross-correlations unknown (``False``: an approximation)."""
+    if callable(getattr(estimator, "join", None)):
+        gm = estimator.join()
+        return VehicleMap(gm.x, 0.5 * (gm.P + gm.P.T), name), True
+    if isinstance(estimator, AEKFSlam):
+        x, P = estimator.state()
+        return VehicleMap(x, 0.5 * (P + P.T), name), True
+    xv, Pv = estimator.pose()
+    means, covs = estimator.landmarks()
+    m = len(means)
+    P = np.zeros((3 + 2 * m, 3 + 2 * m))
+    P[:3, :3] = Pv
+    for i in range(m):  # block diagonal (few landmarks)
+        P[3 + 2 * i : 5 + 2 * i, 3 + 2 * i : 5 + 2 * i] = covs[i]
+    x = np.r_[np.asarray(xv, float)[:3], np.asarray(means, float).reshape(-1)]
+    return VehicleMap(x, 0.5 * (P + P.T), name), False
