@@ -185,8 +185,9 @@ def test_swarms_mapping_runs_four_vehicles_each_with_own_slam(tmp_path):
     # one fused map for the fleet: every vehicle's map in it, logged beside theirs
     fleet = res.metrics["fleet"]
     assert set(fleet["vehicles"]) == names and fleet["approximate_covariance"] == []
-    assert fleet["landmarks"]["n_estimated"] == sum(fleet["n_landmarks_per_vehicle"].values()) - (
-        fleet["n_paired_between_vehicles"]
+    assert (
+        fleet["landmarks"]["n_estimated"]
+        == sum(fleet["n_landmarks_per_vehicle"].values()) - (fleet["n_paired_between_vehicles"])
     )
     assert "/world/slam/fleet/landmarks" in ents and "fleet map (4 maps fused" in res.summary()
 
