@@ -52,10 +52,15 @@ def fleet_map(run) -> tuple[FusedMap | None, dict | None]:
     truth = np.array([np.asarray(objs[k].position)[:2] for k in idx]).reshape(-1, 2)
     lm = landmark_metrics(fused.landmarks, fused.landmark_cov, truth)
     lm["n_objects_imaged"] = len(idx)
-    poses = {}
+    poses, moved = {}, {}
     for k, v in enumerate(slam_vehicles):  # final pose of each vehicle in the fused map
         tp = np.asarray(v.true_pose[-1])
         poses[v.spec.name] = float(np.hypot(*(fused.poses[k, :2] - tp[:2])))
+        moved[v.spec.name] = float(np.hypot(*(fused.poses[k, :2] - maps[k].x[:2])))
+    members = [[] for _ in range(fused.n_landmarks)]
+    for k, a in enumerate(fused.assignment):  # which vehicles mapped each fused landmark
+        for j in a:
+            members[int(j)].append(slam_vehicles[k].spec.name)
     metrics = {
         "vehicles": [v.spec.name for v in slam_vehicles],
         "gps_anchored": [slam_vehicles[f.vehicle].spec.name for f in gps],
@@ -69,5 +74,8 @@ def fleet_map(run) -> tuple[FusedMap | None, dict | None]:
         "dof": fused.dof,
         "landmarks": lm,
         "final_pose_error_m": poses,
+        "pose_moved_by_fusion_m": moved,
+        "landmark_positions_m": np.round(fused.landmarks, 3).tolist(),
+        "landmark_vehicles": members,
     }
     return fused, metrics
