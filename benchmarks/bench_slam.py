@@ -12,6 +12,11 @@
    log-log slope shows the O(n²) growth. Goal: 2,000 landmarks at >= 50 updates/s.
 3. The same FastSLAM 2.0 / AEKF ratio on the line map (reference's MATLAB: 594.1 s / 99.8 s
    = 5.95), then the load average at start and end of the run.
+4. With ``--bailey-dir DIR`` (or ``$UNDERSEA_BAILEY_DIR``): Tim Bailey's original
+   ``ekfslam_v1`` (``ekfslam_sim.m``, ``configfile.m`` and the utilities it calls; not
+   shipped here, it is not ours to redistribute) run by GNU Octave on the same dense loop
+   in the same run, and the Octave / AEKF time ratio (target >= 25). Without Octave or the
+   code, the output says which is missing.
 
 BLAS is limited to one thread (the filters' small matrices only lose from threads on a
 shared 2-core machine); ``--blas-threads`` changes that for the scaling part.
@@ -22,7 +27,11 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
+import subprocess
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -82,10 +91,68 @@ def _dense_loop_times(
         out["ratio_fastslam2_over_aekf"] = (
             est["fastslam2"]["time_s_mean"] / est["aekf"]["time_s_mean"]
         )
+    if "time_s_mean" in est.get("isam2", {}):
+        out["ratio_isam2_over_aekf"] = est["isam2"]["time_s_mean"] / est["aekf"]["time_s_mean"]
     t_aekf, t_fs = REFERENCE_MATLAB_S[experiment]
     out["reference_matlab_s"] = {"aekf": t_aekf, "fastslam2": t_fs, "ratio": t_fs / t_aekf}
     out["target_aekf_s"] = 1.0
     return out
+
+
+#: Octave driver: Bailey's simulator on example_webmap (two loops at his configfile's
+#: dt 0.025 s); the drawing functions it calls are shadowed by no-ops (``_NO_DRAW``) so
+#: only the filter and the simulator are timed, as the AEKF is
+_OCTAVE_DRIVER = """
+addpath('{code}'); addpath('{stubs}'); load('{mat}');
+t0 = tic; data = ekfslam_sim(lm, wp); t = toc(t0);
+printf('BAILEY_SECONDS %.6f STEPS %d\\n', t, data.i);
+"""
+_NO_DRAW = ("figure", "plot", "patch", "set", "drawnow", "xlabel", "ylabel", "axis", "hold")
+
+
+def _octave_bailey(bailey_dir: str | None, timeout_s: float = 900.0) -> dict:
+    """Seconds of one run of Bailey's ekfslam_v1 in GNU Octave on the dense loop, or why not."""
+    octave = shutil.which("octave") or shutil.which("octave-cli")
+    if octave is None:
+        return {"error": "GNU Octave not installed (apt-get install octave)"}
+    if not bailey_dir or not (Path(bailey_dir) / "ekfslam_sim.m").is_file():
+        return {
+            "error": "Bailey's ekfslam_v1 not found: give --bailey-dir DIR (or "
+            "UNDERSEA_BAILEY_DIR) holding ekfslam_sim.m, configfile.m and its utilities"
+        }
+    from scipy.io import savemat
+
+    from slam.sim2d.maps import dense_loop_map
+
+    m = dense_loop_map()
+    with tempfile.TemporaryDirectory() as tmp:
+        mat = Path(tmp) / "webmap.mat"
+        stubs = Path(tmp) / "no_draw"
+        stubs.mkdir()
+        for name in _NO_DRAW:  # a handle-like 0 for every output asked for
+            (stubs / f"{name}.m").write_text(
+                f"function varargout = {name}(varargin)\n"
+                "  varargout = num2cell(zeros(1, max(nargout, 1)));\nend\n"
+            )
+        savemat(
+            mat, {"lm": np.asarray(m.landmarks, float).T, "wp": np.asarray(m.waypoints, float).T}
+        )
+        script = _OCTAVE_DRIVER.format(code=Path(bailey_dir).resolve(), stubs=stubs, mat=mat)
+        try:
+            r = subprocess.run(
+                [octave, "--no-gui", "--no-window-system", "-q", "--eval", script],
+                capture_output=True,
+                text=True,
+                timeout=timeout_s,
+                cwd=tmp,
+            )
+        except subprocess.TimeoutExpired:
+            return {"error": f"Octave run longer than {timeout_s:.0f} s"}
+    for line in r.stdout.splitlines():
+        if line.startswith("BAILEY_SECONDS"):
+            f = line.split()
+            return {"time_s": float(f[1]), "control_steps": int(f[3]), "octave": octave}
+    return {"error": f"Octave failed (exit {r.returncode}): {r.stderr.strip()[-300:]}"}
 
 
 def _cpu_ratio(d: dict) -> float:
@@ -226,12 +293,23 @@ def main(argv=None) -> int:
     p.add_argument("--submap-spacing", type=float, default=5.0, help="m between landmarks")
     p.add_argument("--submap-size", type=int, default=100, help="landmarks per local map")
     p.add_argument("--submap-full", action="store_true", help="also run the full AEKF on it")
+    p.add_argument(
+        "--bailey-dir",
+        default=os.environ.get("UNDERSEA_BAILEY_DIR"),
+        help="directory of Bailey's ekfslam_v1 for the Octave comparison",
+    )
     args = p.parse_args(argv)
     from threadpoolctl import threadpool_limits
 
     sizes = [int(s) for s in args.sizes.split(",") if s]
     load_start = os.getloadavg()
     result = {"dense_loop": _dense_loop_times(args.runs, args.skip_fastslam, args.skip_isam2)}
+    oct_ = _octave_bailey(args.bailey_dir)
+    if "time_s" in oct_:
+        oct_["ratio_over_aekf"] = (
+            oct_["time_s"] / result["dense_loop"]["estimators"]["aekf-consistent"]["time_s_mean"]
+        )
+    result["octave_bailey_ekfslam_v1"] = oct_
     if not args.skip_fastslam:  # the thesis's second cost comparison: the line map
         result["line"] = _dense_loop_times(args.runs, False, True, "line", full=False)
     result["load_average_1_5_15"] = {"start": load_start, "end": os.getloadavg()}
@@ -262,6 +340,17 @@ def main(argv=None) -> int:
             f"{_cpu_ratio(d):.1f} CPU "
             f"(reference MATLAB {d['reference_matlab_s']['ratio']:.2f}); AEKF target <= 1 s"
         )
+    if "ratio_isam2_over_aekf" in d:
+        print(f"  iSAM2 / AEKF time ratio {d['ratio_isam2_over_aekf']:.1f} wall")
+    ob = result["octave_bailey_ekfslam_v1"]
+    if "time_s" in ob:
+        print(
+            f"  Bailey's ekfslam_v1 in GNU Octave: {ob['time_s']:.2f} s per run "
+            f"({ob['control_steps']} steps) = {ob['ratio_over_aekf']:.1f} x the AEKF "
+            "(preset=consistent); target >= 25"
+        )
+    else:
+        print(f"  Bailey's ekfslam_v1 in GNU Octave: not measured: {ob['error']}")
     if "line" in result:
         ln = result["line"]
         for name, e in ln["estimators"].items():

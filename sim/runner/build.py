@@ -153,6 +153,8 @@ class VehicleRuntime:
     tally: DetectionTally = field(default_factory=DetectionTally)
     true_t: list = field(default_factory=list)
     true_pose: list = field(default_factory=list)  # [x, y, z, yaw]
+    gps_fixes: list = field(default_factory=list)  # (t s, xy (2,) world m) while surfaced
+    surfacing: bool = False  # left the mission for the surface (mission.surface_at_s)
     speed: float = 0.0
     altitude_nav: float = float("nan")
 

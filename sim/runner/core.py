@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.runner.figures import write_figures
+from sim.runner.fleet import fleet_map
 from sim.runner.log import RerunObserver
 from sim.runner.output import RunDirectory, discard_partial_on_error
 from sim.runner.progress import make_progress
@@ -49,6 +50,19 @@ class RunResult:
             )
             for w in v.get("navigation", {}).get("warnings", []):
                 lines.append(f"  WARNING {name}: {w}")
+        fl = m.get("fleet")
+        if fl:
+            lm = fl["landmarks"]
+            gps = ", ".join(fl["gps_anchored"]) or "none"
+            lines.append(
+                f"  fleet map ({len(fl['vehicles'])} maps fused, "
+                f"{fl['n_paired_between_vehicles']} landmarks paired between vehicles, "
+                f"GPS anchors: {gps}): landmarks {lm.get('n_estimated', 0)} "
+                f"(RMSE {_fmt(lm.get('rmse_m'))} m, NEES {_fmt(lm.get('landmark_nees_mean'))}, "
+                f"duplicated {lm.get('n_duplicated_objects', 0)}, "
+                f"spurious {lm.get('n_spurious', 0)}, "
+                f"{lm.get('n_true_mapped', 0)} of {lm.get('n_objects_imaged', 0)} imaged objects)"
+            )
         t = m.get("timing", {})
         lines.append(
             f"  sim {m.get('sim_time_s', 0):.1f} s in {_fmt(t.get('wall_s'))} s (RTF {_fmt(t.get('real_time_factor'))})"
@@ -125,11 +139,34 @@ def run_scenario(
             "stages_s": dict(run.timer.s),
         },
     }
+    fused = None
+    if error is None:
+        try:
+            fused, fleet = fleet_map(run)
+        except Exception as exc:  # the fused map must not lose the vehicles' metrics
+            fused, fleet = None, None
+            metrics["fleet_error"] = f"{type(exc).__name__}: {exc}"
+        if fleet is not None:
+            metrics["fleet"] = fleet
     if error is not None:
         metrics["error"] = f"{type(error).__name__}: {error}"
     if not complete:
         metrics["interrupted_at_s"] = round(run.t_sim, 6)
     if rec is not None:
+        if fused is not None:
+            L.set_time(rec, run.world.time)
+            z = run.world.seabed_height(fused.landmarks) + 0.5 if fused.n_landmarks else 0.0
+            L.log_landmarks(rec, "fleet", fused.landmarks, fused.landmark_cov, z)
+            lm = metrics["fleet"]["landmarks"]
+            L.log_scalars(
+                rec,
+                "fleet",
+                {
+                    "landmark_rmse_m": lm.get("rmse_m"),
+                    "n_landmarks": float(fused.n_landmarks),
+                    "n_duplicated": float(lm.get("n_duplicated_objects", 0)),
+                },
+            )
         L.close_recording(rec)
     if scenario.outputs.figures:
         try:

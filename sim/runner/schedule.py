@@ -22,6 +22,7 @@ from collections import defaultdict
 
 import numpy as np
 
+from sim.guidance.missions import hold
 from sim.guidance.world_adapter import autopilot_for
 from sim.navigation import NavSuite
 from sim.runner.build import (
@@ -174,6 +175,8 @@ class ScenarioRun:
     def _tick(self, dt_c: float) -> None:
         """One control tick: guidance, physics to each due ping, pings, release."""
         tracks = [(v, s) for v in self.vehicles for s in v.sonars]
+        for v in self.vehicles:
+            self._surface_if_due(v)
 
         def on_ping(k: int) -> None:
             v, s = tracks[k]
@@ -194,6 +197,17 @@ class ScenarioRun:
             v.slam.release(self.world.time)
             self.timer.add("slam", t0)
 
+    def _surface_if_due(self, v: VehicleRuntime) -> None:
+        """At the mission's ``surface_at_s``: leave the mission and hold at the surface
+        above the position the vehicle's own navigation gives (GPS fixes from there)."""
+        t_s = v.spec.mission.surface_at_s
+        if t_s is None or v.surfacing or self.world.time < t_s - 1e-9:
+            return
+        xy = v.nav.navigation_state(v.handle.state()).position[:2]
+        mission = hold(np.asarray(xy, float), duration=1e9, depth=0.0)
+        v.autopilot = autopilot_for(self.world, v.spec.name, mission, check=False)
+        v.surfacing = True
+
     def _record_truth(self, v: VehicleRuntime) -> None:
         st = v.handle.state()
         v.true_t.append(st.t)
@@ -204,6 +218,7 @@ class ScenarioRun:
         t0 = time.perf_counter()
         st = v.handle.state()
         r = v.nav.poll(st)
+        v.gps_fixes.extend((m.t, m.position_xy) for m in r.gps if m.valid)
         if r.dvl:
             m = r.dvl[-1]
             if m.valid:

@@ -97,7 +97,10 @@ class WorldSpecConfig:
 @dataclass(frozen=True)
 class MissionSpec:
     """Mission: lawnmower (area centre/size, heading, line spacing), loop/waypoints/line
-    (explicit waypoints), hold (station keeping). Altitude (m above seabed) or depth (m)."""
+    (explicit waypoints), hold (station keeping). Altitude (m above seabed) or depth (m).
+    ``surface_at_s``: at this time the vehicle leaves its mission and surfaces where its
+    navigation puts it (GPS fixes at the surface; a fix at the end of the run anchors the
+    fleet's fused map, sim.runner.fleet)."""
 
     type: str = "lawnmower"
     speed_mps: float = 1.5
@@ -109,6 +112,7 @@ class MissionSpec:
     line_spacing_m: float | None = None
     waypoints: tuple[tuple[float, float], ...] = ()
     loops: int = 1
+    surface_at_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -421,6 +425,7 @@ def _parse_mission(d, path) -> MissionSpec:
             "line_spacing_m",
             "waypoints",
             "loops",
+            "surface_at_s",
         ),
     )
     typ = _str(d.get("type", "lawnmower"), f"{path}.type", MISSION_TYPES)
@@ -452,6 +457,9 @@ def _parse_mission(d, path) -> MissionSpec:
         else _num(ls, f"{path}.line_spacing_m", 0.0, 1000.0, lo_open=True),
         waypoints=waypoints,  # type: ignore[arg-type]
         loops=_int(d.get("loops", 1), f"{path}.loops", lo=1, hi=1000),
+        surface_at_s=None
+        if d.get("surface_at_s") is None
+        else _num(d["surface_at_s"], f"{path}.surface_at_s", 0.0, lo_open=True),
     )
 
 

@@ -16,8 +16,9 @@ Entity tree (follows the frames; world frame x east, y north, z up, metres):
 ``world/trajectories/<vehicle>/estimated``     SLAM path
 ``world/slam/<vehicle>/landmarks``             estimated landmarks (points)
 ``world/slam/<vehicle>/landmark_cov``          their 2-sigma covariance ellipses (flat ellipsoids)
+``world/slam/fleet/landmarks``, ``landmark_cov`` the fleet's fused map (end of a multi-vehicle run)
 ``world/detections/<vehicle>/<sonar>``         detections projected into the world
-``metrics/<vehicle>/<name>``                   scalars over sim time
+``metrics/<vehicle>/<name>``                   scalars over sim time (``metrics/fleet/...``: fused map)
 
 Timeline: ``sim_time`` (a duration in seconds). rerun's wall-clock ``log_time`` is switched
 off so a recording depends only on the scenario and seed.

@@ -672,6 +672,11 @@ class AEKFConfig:
     max_misses : state reduction: a landmark predicted well inside the footprint
         (``reduction_margin_m`` inside its range edge and 10° inside its angle edge) on
         this many consecutive scans without an association is removed. None disables.
+    provisional_misses : delayed confirmation: a landmark seen only once (the scan that
+        created it) is removed after this many scans well inside the footprint without an
+        association, even when an observation of the scan was compatible with it (which
+        went to another landmark): a single outlying observation beyond the augment gate
+        of a known landmark then leaves no duplicate. None disables.
     """
 
     reject_gate: float = 4.0
@@ -684,6 +689,7 @@ class AEKFConfig:
     max_range_m: float = 30.0
     fov_half_angle_rad: float = math.pi / 2
     max_misses: int | None = None
+    provisional_misses: int | None = None
     reduction_margin_m: float = 3.0
     fej_gating: bool = False
     unambiguous_gate: float | None = None
@@ -719,6 +725,10 @@ class AEKFConfig:
             )
         if self.max_misses is not None and self.max_misses < 1:
             raise ValueError(f"max_misses must be >= 1 or None, got {self.max_misses}")
+        if self.provisional_misses is not None and self.provisional_misses < 1:
+            raise ValueError(
+                f"provisional_misses must be >= 1 or None, got {self.provisional_misses}"
+            )
         if not self.max_range_m > 0:
             raise ValueError(f"max_range_m must be > 0, got {self.max_range_m}")
 
@@ -1037,10 +1047,12 @@ class AEKFSlam:
         """Count misses of landmarks predicted inside the footprint that no observation of
         the scan was compatible with (NIS < augment gate: an observation rejected as
         ambiguous may be this landmark); remove landmarks missed ``max_misses`` scans in a
-        row (the thesis's state reduction of corrupted landmarks)."""
+        row (the thesis's state reduction of corrupted landmarks); with
+        ``provisional_misses``, landmarks seen once are removed after that many misses,
+        compatible observations or not."""
         cfg = self.config
         n = self.n_landmarks
-        if cfg.max_misses is None or n == 0:
+        if (cfg.max_misses is None and cfg.provisional_misses is None) or n == 0:
             return assoc
         lm = self.x[3:].reshape(n, 2)
         d = lm - self.x[:2]
@@ -1053,10 +1065,18 @@ class AEKFSlam:
         seen[assoc[assoc >= 0]] = True
         self.misses[seen] = 0
         miss = inside & ~seen
+        provisional = self.hits < 2
         if compatible is not None:
-            miss[: compatible.size] &= ~compatible
+            excuse = compatible.copy()
+            if cfg.provisional_misses is not None:
+                excuse &= ~provisional[: compatible.size]
+            miss[: compatible.size] &= ~excuse
         self.misses[miss] += 1
-        drop = self.misses >= cfg.max_misses
+        drop = np.zeros(n, dtype=bool)
+        if cfg.max_misses is not None:
+            drop |= self.misses >= cfg.max_misses
+        if cfg.provisional_misses is not None:
+            drop |= provisional & (self.misses >= cfg.provisional_misses)
         if not np.any(drop):
             return assoc
         dropped = np.flatnonzero(drop)

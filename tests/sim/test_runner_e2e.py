@@ -4,11 +4,13 @@ same seed, same metrics; Ctrl-C leaves a readable recording and an 'incomplete' 
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 
 from sim.runner import OutputExistsError, run_scenario
 from sim.scenario import load_scenario
+from sim.scenario.schema import load_scenario_dict, parse_scenario
 from sim.viz.rerun_log import read_component, read_recording
 
 #: CI size: 400 samples per side instead of 1000 (same 40 m range) and a shorter first
@@ -180,3 +182,30 @@ def test_swarms_mapping_runs_four_vehicles_each_with_own_slam(tmp_path):
         assert v["pose"]["dead_reckoning_ate_m"] is not None
     ents = read_recording(tmp_path / "swarm" / "recording.rrd")
     assert all(f"/world/{n}" in ents and f"/world/{n}/mesh" in ents for n in names)
+    # one fused map for the fleet: every vehicle's map in it, logged beside theirs
+    fleet = res.metrics["fleet"]
+    assert set(fleet["vehicles"]) == names and fleet["approximate_covariance"] == []
+    assert (
+        fleet["landmarks"]["n_estimated"]
+        == sum(fleet["n_landmarks_per_vehicle"].values()) - (fleet["n_paired_between_vehicles"])
+    )
+    assert "/world/slam/fleet/landmarks" in ents and "fleet map (4 maps fused" in res.summary()
+
+
+def test_a_surfaced_vehicle_s_gps_fix_anchors_the_fleet_map(tmp_path):
+    """Two SLAM vehicles; SAGA starts 2 m deep and surfaces at 0.5 s (mission
+    surface_at_s): its GPS fixes at the end of the run (at hand-over) anchor the fused map,
+    and its fused final pose lies within the fix's 3σ (standalone GPS, 2 m) of the truth."""
+    data = load_scenario_dict("swarms-mapping")
+    data["duration_s"] = 12.0
+    data["outputs"] = {"figures": False, "recording": False}
+    saga = next(v for v in data["vehicles"] if v["kind"] == "saga")
+    naiad = next(v for v in data["vehicles"] if v["kind"] == "naiad")
+    saga["start"]["position"][2] = -2.0
+    saga["mission"]["surface_at_s"] = 0.5
+    data["vehicles"] = [naiad, saga]
+    res = run_scenario(parse_scenario(data), tmp_path / "gps", progress=False)
+    fleet = res.metrics["fleet"]
+    assert fleet["gps_anchored"] == ["saga"]
+    assert fleet["final_pose_error_m"]["saga"] < 3 * 2.0 * math.sqrt(2)
+    assert "GPS anchors: saga" in res.summary()

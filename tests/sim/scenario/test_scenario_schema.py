@@ -184,3 +184,11 @@ def test_set_dotted_numeric_index_form(base):
     assert a == b and parse_scenario(a).vehicles[0].mission.speed_mps == 1.0
     with pytest.raises(ScenarioError, match="allowed"):
         set_dotted(base, "vehicles..x", 1)
+
+
+def test_surface_at_s_must_be_a_positive_time(base):
+    base["vehicles"][0]["mission"]["surface_at_s"] = -5.0
+    msg = _err(base)
+    assert "vehicles[0].mission.surface_at_s" in msg and "-5.0" in msg and "> 0" in msg
+    base["vehicles"][0]["mission"]["surface_at_s"] = 30.0
+    assert parse_scenario(base).vehicles[0].mission.surface_at_s == 30.0

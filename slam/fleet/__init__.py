@@ -1,0 +1,27 @@
+"""A fleet's maps fused into one (SWARMs use case 5): map-to-map joint-compatibility
+association (:mod:`slam.fleet.association`) and the joint MAP of every vehicle's map,
+frame priors and surface GPS fixes (:mod:`slam.fleet.fusion`). Arrays in, arrays out: no
+simulator types."""
+
+from slam.fleet.association import MapPairing, pair_maps
+from slam.fleet.fusion import (
+    FleetFusionConfig,
+    FusedMap,
+    GpsFix,
+    VehicleMap,
+    fuse_maps,
+    solve_fused,
+    vehicle_map_from,
+)
+
+__all__ = [
+    "FleetFusionConfig",
+    "FusedMap",
+    "GpsFix",
+    "MapPairing",
+    "VehicleMap",
+    "fuse_maps",
+    "pair_maps",
+    "solve_fused",
+    "vehicle_map_from",
+]
