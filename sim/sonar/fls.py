@@ -21,6 +21,7 @@ from sim.sonar.config import FLSConfig, WaterLike
 from sim.sonar.echo import form_echo
 from sim.sonar.glint import add_azimuth_sidelobes, azimuth_sidelobe_kernel, corner_returns
 from sim.sonar.mount import SonarMount
+from sim.sonar.rays import ray_cones
 
 
 @dataclass(frozen=True)
@@ -102,6 +103,7 @@ class ForwardLookingSonar:
         j = np.arange(nb * nr).reshape(nb, nr)
         self._neighbours = (j % nr < nr - 1).reshape(-1)[:-1]  # j and j+1 in the same beam
         self._sidelobes = None
+        self._cones = ray_cones(self._d_local)  # bounds for the moving-body test
 
     def _realism(self, mean, hits, origin, dirs):
         """Mean image plus the objects' corner returns and the azimuth sidelobes of the
@@ -154,7 +156,7 @@ class ForwardLookingSonar:
         p, R = m.pose(data, site)
         dirs = self._d_local @ R.T
         d_dirs = self._dd_local @ R.T
-        hits = m.backend.cast(data, p, dirs, m.cutoff)
+        hits = m.backend.cast(data, p, dirs, m.cutoff, self._cones.rotated(R))
         echo = form_echo(
             hits,
             p,
