@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.sonar.echo_kernels import background_positions, covered, splat_boxes
 from sim.sonar.rays import RayHits
 
 MIN_EXTENT_BINS = 0.5
@@ -58,32 +59,14 @@ def _splat_energy(rows, a, b, e, n_rows, n_bins):
     Returns (n_rows, n_bins). A kink of slope s at fractional position p = i + f adds
     s(1−f) at i+1 and s·f at i+2 of a second-difference array whose cumsum is the cell value.
     """
-    stride = n_bins + 3
-    rho = e / (b - a)
-    aa = np.clip(a, 0.0, n_bins)
-    bb = np.clip(b, 0.0, n_bins)
-    ia = np.floor(aa)
-    ib = np.floor(bb)
-    fa = aa - ia
-    fb = bb - ib
-    base = rows * stride + 1
-    ba = base + ia.astype(np.int64)
-    bbi = base + ib.astype(np.int64)
-    idx = np.concatenate([ba, ba + 1, bbi, bbi + 1])
-    val = np.concatenate([rho * (1.0 - fa), rho * fa, -rho * (1.0 - fb), -rho * fb])
-    d2 = np.bincount(idx, weights=val, minlength=n_rows * stride).astype(np.float64, copy=False)
-    d2 = d2.reshape(n_rows, stride)
-    out = np.ascontiguousarray(np.cumsum(d2, axis=1)[:, 1 : n_bins + 1])
-    np.maximum(out, 0.0, out=out)  # cumsum round-off must not produce negative energy
-    return out
-
-
-def _coverage(rows, start, end, n_rows, n_bins):
-    """Number of integer spans [start, end) of each row covering each cell (exact ints)."""
-    stride = n_bins + 1
-    c = np.bincount(rows * stride + start, minlength=n_rows * stride)
-    c -= np.bincount(rows * stride + end, minlength=n_rows * stride)
-    return np.cumsum(c.reshape(n_rows, stride), axis=1)[:, :n_bins]
+    return splat_boxes(
+        np.asarray(rows, np.int64),
+        np.asarray(a, np.float64),
+        np.asarray(b, np.float64),
+        np.asarray(e, np.float64),
+        n_rows,
+        n_bins,
+    )
 
 
 SUBBOX_BINS = 2.0  # wide footprints are split into sub-boxes of about this many bins
@@ -310,28 +293,20 @@ def form_echo(
     labels = np.full((n_rows, n_bins), -1, np.int32)
     other = bg & (lab == -2)
     if other.any():
-        labels[_coverage(rows[other], start[other], end[other], n_rows, n_bins) > 0] = -2
+        labels[covered(rows[other], start[other], end[other], n_rows, n_bins)] = -2
     sb = bg & (lab == 0)
-    labels[_coverage(rows[sb], start[sb], end[sb], n_rows, n_bins) > 0] = 0
+    labels[covered(rows[sb], start[sb], end[sb], n_rows, n_bins)] = 0
 
     # background hit positions: centre cells, then interpolation along range
     inr = np.flatnonzero(bg & (fc >= 0) & (fc < n_bins))
     cell = rows[inr] * n_bins + fc[inr].astype(np.int64)
     ew = energy[inr] + 1e-300
     ewr = ew * r[inr]
-    d_in = dirs[inr]
     size = n_rows * n_bins
-    den = np.bincount(cell, ew, minlength=size)
-    hitpos = np.full((size, 3), np.nan)
-    has = den > 0
     flat_lab = labels.reshape(-1)
-    want = flat_lab != -1
-    if has.any():
-        known = np.flatnonzero(has)
-        query = np.flatnonzero(want)
-        for c in range(3):  # three coordinates, not per ray
-            num = np.bincount(cell, ewr * d_in[:, c], minlength=size)  # Σ E·r·d_c
-            hitpos[query, c] = origin[c] + np.interp(query, known, num[known] / den[known])
+    hitpos = background_positions(
+        cell, ew, ewr, np.take(dirs, inr, axis=0), np.asarray(origin, float), flat_lab != -1, size
+    )
 
     if any_obj:
         # few rays: expand each footprint into its cells (vectorized repeat); sort by id so

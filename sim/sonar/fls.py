@@ -16,7 +16,7 @@ import cv2
 import mujoco
 import numpy as np
 
-from sim.sonar.acoustics import beam_pattern, finish_samples
+from sim.sonar.acoustics import beam_pattern, finish_samples, tvg_gain
 from sim.sonar.config import FLSConfig, WaterLike
 from sim.sonar.echo import form_echo
 from sim.sonar.glint import add_azimuth_sidelobes, azimuth_sidelobe_kernel, corner_returns
@@ -104,6 +104,7 @@ class ForwardLookingSonar:
         self._neighbours = (j % nr < nr - 1).reshape(-1)[:-1]  # j and j+1 in the same beam
         self._sidelobes = None
         self._cones = ray_cones(self._d_local)  # bounds for the moving-body test
+        self._tvg = tvg_gain(self.ranges, self.mount.alpha_db_m, c.acoustic.tvg)
 
     def _realism(self, mean, hits, origin, dirs):
         """Mean image plus the objects' corner returns and the azimuth sidelobes of the
@@ -179,8 +180,7 @@ class ForwardLookingSonar:
             m.object_gain,
         )
         mean = self._realism(echo.mean, hits, p, dirs)
-        r = np.broadcast_to(self.ranges[None, :], echo.mean.shape).reshape(-1)
-        img = finish_samples(mean.reshape(-1), r, m.alpha_db_m, c.acoustic, rng).reshape(mean.shape)
+        img = finish_samples(mean, self.ranges, m.alpha_db_m, c.acoustic, rng, self._tvg)
         return FLSFrame(
             image=np.ascontiguousarray(img.T),
             ranges=self.ranges,

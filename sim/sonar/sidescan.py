@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 from scipy import ndimage
 
-from sim.sonar.acoustics import beam_pattern, finish_samples
+from sim.sonar.acoustics import beam_pattern, finish_samples, tvg_gain
 from sim.sonar.chain import SideScanChain
 from sim.sonar.config import SSSConfig, WaterLike
 from sim.sonar.echo import Echo, form_echo
@@ -142,6 +142,7 @@ class SideScanSonar:
             ]
         )
         self._fan_cache = None
+        self._tvg = tvg_gain(self.ranges, self.mount.alpha_db_m, c.acoustic.tvg)
         rz = c.acoustic.realism
         self.chain = SideScanChain(c, self.mount, self.ranges) if rz is not None else None
 
@@ -351,9 +352,7 @@ class SideScanSonar:
         if self.chain is not None:
             inten = self.chain.finish(mean, altitude, 0.5 * (p_port + p_stbd), rng)
         else:
-            r2 = np.concatenate([self.ranges, self.ranges])
-            inten = finish_samples(mean.reshape(-1), r2, m.alpha_db_m, c.acoustic, rng)
-            inten = inten.reshape(2, S)
+            inten = finish_samples(mean, self.ranges, m.alpha_db_m, c.acoustic, rng, self._tvg)
         return SSSPing(
             intensity=np.concatenate([inten[0, ::-1], inten[1]]),
             slant_range=self.slant_range,
