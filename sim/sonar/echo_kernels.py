@@ -78,14 +78,17 @@ def covered(rows, start, end, n_rows, n_bins):
 
 
 @numba.njit(cache=True)
-def background_positions(cell, ew, ewr, d, origin, want, size):
-    """Hit position (size, 3) world m of each wanted cell, NaN elsewhere.
+def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_first):
+    """Hit position (n_rows · n_bins, 3) world m of each wanted cell, NaN elsewhere; cells
+    are indexed row · n_bins + bin (``cell``, ``want``), the output likewise or, with
+    ``bins_first``, bin · n_rows + row.
 
     Cells holding rays' footprint centres (``cell`` (M,) int64, energies ``ew``, ``ewr`` =
     ew·r, directions ``d`` (M, 3)) get origin + Σ E·r·d / Σ E; every wanted cell gets that
     value linearly interpolated over the cell index between such cells (held constant
     beyond the first and last), exactly as ``origin[c] + np.interp(query, known, …)``.
     """
+    size = n_rows * n_bins
     den = np.zeros(size)
     num = np.zeros((3, size))
     for i in range(cell.size):
@@ -114,6 +117,7 @@ def background_positions(cell, ew, ewr, d, origin, want, size):
         if not want[q]:
             continue
         x = float(q)
+        t = (q % n_bins) * n_rows + q // n_bins if bins_first else q
         while j + 1 < nk and xk[j + 1] <= x:
             j += 1
         for c in range(3):
@@ -128,5 +132,68 @@ def background_positions(cell, ew, ewr, d, origin, want, size):
                     v = slope * (x - xk[j + 1]) + yk[c, j + 1]
                     if np.isnan(v) and yk[c, j] == yk[c, j + 1]:
                         v = yk[c, j]
-            out[q, c] = origin[c] + v
+            out[t, c] = origin[c] + v
+    return out
+
+
+@numba.njit(cache=True)
+def neighbour_log_slope(idx, fc, log_rho, r_bins, link):
+    """d ln(density)/d(bin) of rays ``idx`` from their linked neighbours j ± 1 (mean of
+    (log_rho[j] − log_rho[i]) / (fc[j] − fc[i]) over both sides), else −3 / max(r, 1)."""
+    n = fc.size
+    out = np.empty(idx.size)
+    for i in range(idx.size):
+        ii = idx[i]
+        tot = 0.0
+        cnt = 0.0
+        for side in (-1, 1):
+            j = ii + side
+            jj = min(max(j, 0), n - 1)
+            ok = j >= 0 and j < n and link[min(max(min(ii, jj), 0), n - 2)]
+            dfc = fc[jj] - fc[ii]
+            if ok and abs(dfc) > 1e-6:
+                tot += (log_rho[jj] - log_rho[ii]) / dfc
+                cnt += 1.0
+        out[i] = tot / max(cnt, 1.0) if cnt > 0 else -3.0 / max(r_bins[ii], 1.0)
+    return out
+
+
+@numba.njit(cache=True)
+def sub_boxes(wide, kw, width, a, fc, slope):
+    """Split footprint [a, a + width) of each ray ``wide[i]`` into ``kw[i]`` equal
+    sub-boxes: (source ray, start, end, clip(slope·(centre − fc), ±30)) per sub-box."""
+    total = 0
+    for i in range(kw.size):
+        total += kw[i]
+    src = np.empty(total, np.int64)
+    sa = np.empty(total)
+    sb = np.empty(total)
+    x = np.empty(total)
+    p = 0
+    for i in range(wide.size):
+        w = wide[i]
+        step = width[w] / kw[i]
+        for j in range(kw[i]):
+            lo = a[w] + j * step
+            hi = lo + step
+            src[p] = w
+            sa[p] = lo
+            sb[p] = hi
+            x[p] = min(max(slope[i] * (0.5 * (lo + hi) - fc[w]), -30.0), 30.0)
+            p += 1
+    return src, sa, sb, x
+
+
+@numba.njit(cache=True)
+def share_energy(kw, weight, e, src):
+    """Energy of each sub-box: its ray's energy × weight / (sum of the ray's weights)."""
+    out = np.empty(weight.size)
+    p = 0
+    for i in range(kw.size):
+        s = 0.0
+        for j in range(kw[i]):
+            s += weight[p + j]
+        for j in range(kw[i]):
+            out[p + j] = e[src[p + j]] * (weight[p + j] / s)
+        p += kw[i]
     return out

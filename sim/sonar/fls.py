@@ -178,6 +178,7 @@ class ForwardLookingSonar:
             m.seabed,
             m.object_specular,
             m.object_gain,
+            bins_first=True,
         )
         mean = self._realism(echo.mean, hits, p, dirs)
         img = finish_samples(mean, self.ranges, m.alpha_db_m, c.acoustic, rng, self._tvg)
@@ -186,7 +187,7 @@ class ForwardLookingSonar:
             ranges=self.ranges,
             bearings=self.bearings,
             labels=np.ascontiguousarray(echo.labels.T),
-            hit_position=np.ascontiguousarray(echo.hit_position.transpose(1, 0, 2)),
+            hit_position=echo.hit_position,
             sensor_position=p,
             sensor_rotation=R,
             time=float(data.time),
