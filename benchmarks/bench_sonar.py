@@ -55,6 +55,106 @@ def _time(fn, n: int) -> float:
     return n / wall
 
 
+def _cpu(fn) -> float:
+    c0 = time.process_time()
+    fn()
+    return time.process_time() - c0
+
+
+def ping_vs_cast(sss, sc, mover, n: int) -> dict:
+    """Process-CPU ms of a whole SSS ping, of the project's cast of that ping's rays (the
+    fan and the nadir probe in one batch, as the ping casts them, moving-body test
+    included) and of bare ``embreex`` (``EmbreeScene.run`` on the same rays, prebuilt
+    float32 origins and directions), called in turn at each pose; medians and ratios."""
+
+    d = sc.data
+    mt = sss.mount
+    be = mt.backend
+    rng = np.random.default_rng(0)
+    t_ping, t_cast, t_bare = [], [], []
+    for k in range(n + 1):
+        mover(k)
+        sss.ping(d, rng)  # also refreshes the cached fan for this pose
+        fan = sss._fan_cache[1]
+        p0, R = mt.pose(d, mt.site_ids[0])
+        dirs = np.concatenate([fan.directions @ R.T, sss._probe_local @ R.T])
+        cones = fan.cones.rotated(R)
+        o32 = np.empty((dirs.shape[0], 3), np.float32)
+        o32[:] = p0 - be.center
+        d32 = np.ascontiguousarray(dirs, np.float32)
+        tb = _cpu(
+            lambda o32=o32, d32=d32: be.scene.run(
+                o32, d32, np.full(len(d32), mt.cutoff, np.float32), output=1
+            )
+        )
+        tc = _cpu(lambda p0=p0, dirs=dirs, cones=cones: be.cast(d, p0, dirs, mt.cutoff, cones))
+        tp = _cpu(lambda: sss.ping(d, rng))
+        if k:  # the first round warms up
+            t_bare.append(tb)
+            t_cast.append(tc)
+            t_ping.append(tp)
+    ping, cast, bare = (1e3 * float(np.median(x)) for x in (t_ping, t_cast, t_bare))
+    return {
+        "sss_ms_per_ping_total": round(ping, 3),
+        "sss_ms_per_ping_cast": round(cast, 3),
+        "sss_ms_per_ping_bare_embreex": round(bare, 3),
+        "sss_rays_per_ping_cast": int(dirs.shape[0]),
+        "sss_ping_over_cast": round(ping / cast, 2),
+        "sss_cast_over_bare_embreex": round(cast / bare, 2),
+    }
+
+
+def fls_echo_share(cfg, sc, mover, n: int) -> dict:
+    """Process-CPU ms of an FLS frame and of its ray cast alone, in turn at each pose."""
+    from sim.sonar import ForwardLookingSonar
+
+    d = sc.data
+    fls = ForwardLookingSonar(
+        cfg, sc.model, d, sc.sites["fls"], sc.geom_object_id, sc.geom_reflectivity, sc.water
+    )
+    mt = fls.mount
+    rng = np.random.default_rng(0)
+    t_frame, t_cast = [], []
+    for k in range(n + 1):
+        mover(k)
+        p0, R = mt.pose(d, mt.site_ids[0])
+        dirs = fls._d_local @ R.T
+        cones = fls._cones.rotated(R)
+        tc = _cpu(
+            lambda p0=p0, dirs=dirs, cones=cones: mt.backend.cast(d, p0, dirs, mt.cutoff, cones)
+        )
+        tf = _cpu(lambda: fls.frame(d, rng))
+        if k:
+            t_cast.append(tc)
+            t_frame.append(tf)
+    frame, cast = (1e3 * float(np.median(x)) for x in (t_frame, t_cast))
+    return {
+        "fls_ms_per_frame_total": round(frame, 3),
+        "fls_ms_per_frame_cast": round(cast, 3),
+        "fls_frame_over_cast": round(frame / cast, 2),
+    }
+
+
+#: issue 16's goals for the ratios measured in one run (name: (comparison, goal, note))
+GOALS = {
+    "sss_ping_over_cast": ("<=", 1.5, "SSS ping total / its own ray cast"),
+    "sss_cast_over_bare_embreex": ("<=", 1.2, "project's cast / bare embreex, same rays"),
+}
+
+
+def print_goals(out: dict) -> None:
+    """Each issue-16 ratio beside its goal (the bare reference was measured in this run)."""
+    print(f"issue 16 ratios (process CPU, load average {out.get('load_average_1min', '?')}):")
+    for k, (cmp, goal, what) in GOALS.items():
+        v = out[k]
+        ok = v <= goal if cmp == "<=" else v >= goal
+        print(f"  {what:42s} {v:6.2f}x   goal {cmp} {goal}x   {'met' if ok else 'MISSED'}")
+    print(
+        f"  {'FLS 256x512x16 frames per CPU s':42s} {out['fls_frames_per_cpu_s_embree']:6.1f}"
+        "    goal >= 3x the pre-issue-16 code (benchmarks/README.md: before/after run)"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="undersea bench sonar", description=__doc__.splitlines()[0])
     ap.add_argument("--json", action="store_true", help="print one JSON object")
@@ -169,45 +269,13 @@ def main(argv: list[str] | None = None) -> int:
 
     out["sss_pings_per_s_embree_1_along_track_ray"] = round(_time(ping1, args.pings), 1)
     out["sss_pings_per_cpu_s_embree_1_along_track_ray"] = round(_CPU[id(ping1)], 1)
-    # where a default SSS ping's time goes: ray casting vs echo formation (same run)
+    # issue 16: a default SSS ping vs its own cast vs bare embreex on the same rays, and
+    # the FLS frame's share of echo formation, interleaved call by call in this run
     sss = SideScanSonar(
         sss_cfg, m, d, sc.sites["sss"], sc.geom_object_id, sc.geom_reflectivity, sc.water
     )
-    sss.ping(d, np.random.default_rng(0))
-    fan = sss.ray_fan(sss.ping(d, np.random.default_rng(0)).altitude)
-    d_loc, dd_loc, gain, rows = fan.directions, fan.d_directions, fan.gain, fan.rows
-    p0, R = sss.mount.pose(d, sc.sites["sss"])
-    dirs_w, dd_w = d_loc @ R.T, dd_loc @ R.T
-    hits = sss.mount.backend.cast(d, p0, dirs_w, sss.mount.cutoff)
-    from sim.sonar.echo import form_echo
-
-    mt = sss.mount
-    cast_s = 1.0 / _time(lambda k: mt.backend.cast(d, p0, dirs_w, mt.cutoff), args.pings)
-    echo_s = 1.0 / _time(
-        lambda k: form_echo(
-            hits,
-            p0,
-            dirs_w,
-            dd_w,
-            gain,
-            rows,
-            2,
-            sss_cfg.samples_per_side,
-            0.0,
-            sss.bin_width,
-            mt.geom_object_id,
-            mt.geom_reflectivity,
-            mt.alpha_db_m,
-            mt.specular,
-            1.0,
-            fan.neighbours,
-        ),
-        args.pings,
-    )
-    ping_s = 1.0 / out["sss_pings_per_s_embree"]
-    out["sss_ms_per_ping_cast"] = round(1e3 * cast_s, 3)
-    out["sss_ms_per_ping_echo_formation"] = round(1e3 * echo_s, 3)
-    out["sss_ms_per_ping_total"] = round(1e3 * ping_s, 3)
+    out.update(ping_vs_cast(sss, sc, mover, args.pings))
+    out.update(fls_echo_share(fls_cfg, sc, mover, max(3, args.frames // 2)))
     msis = MSISSonar(
         preset("msis"),
         *args_common,
@@ -234,11 +302,13 @@ def main(argv: list[str] | None = None) -> int:
         out["load_average_1min"] = round(os.getloadavg()[0], 2)
     except OSError:
         pass
+    out["goals_issue16"] = {k: {"cmp": c, "goal": g} for k, (c, g, _) in GOALS.items()}
     if args.json:
         print(json.dumps(out))
     else:
         for k, v in out.items():
             print(f"{k:>28}: {v}")
+        print_goals(out)
     return 0
 
 

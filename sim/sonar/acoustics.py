@@ -190,7 +190,11 @@ def apply_speckle_noise(
     s = mean_intensity
     if cfg.speckle == "k":
         s = s * rng.gamma(cfg.k_shape, 1.0 / cfg.k_shape, size=s.shape)
-    return (s + noise) * rng.standard_exponential(size=s.shape)
+        s += noise
+    else:
+        s = s + noise
+    s *= rng.standard_exponential(size=s.shape)
+    return s
 
 
 def tvg_gain(r: np.ndarray, alpha_db_m: float, mode: str) -> np.ndarray:
@@ -206,8 +210,12 @@ def tvg_gain(r: np.ndarray, alpha_db_m: float, mode: str) -> np.ndarray:
 
 def compress_log(intensity: np.ndarray, floor_db: float, dynamic_range_db: float) -> np.ndarray:
     """Display compression: 10·log10(I) mapped from [floor, floor + range] dB to [0, 1]."""
-    db = 10.0 * np.log10(np.maximum(intensity, 1e-30))
-    return np.clip((db - floor_db) / dynamic_range_db, 0.0, 1.0)
+    db = np.maximum(intensity, 1e-30)
+    np.log10(db, out=db)
+    db *= 10.0
+    db -= floor_db
+    db /= dynamic_range_db
+    return np.clip(db, 0.0, 1.0, out=db)
 
 
 def finish_samples(
@@ -216,8 +224,13 @@ def finish_samples(
     alpha_db_m: float,
     cfg: AcousticConfig,
     rng: np.random.Generator,
+    tvg: np.ndarray | None = None,
 ) -> np.ndarray:
     """Speckle + noise, TVG, then optional log compression; returns float32 samples.
+
+    ``tvg``: optional precomputed ``tvg_gain(r, alpha_db_m, cfg.tvg)`` (any shape that
+    broadcasts against ``mean_intensity``; a sonar computes it once, not every ping);
+    ``r`` is then not read.
 
     The default display floor is SL + 10·log10 μ − 60 dB (a seabed with reflectivity 1 after
     full TVG sits ~25 dB above it, mid-grey; the receiver noise in the water column below it) unless
@@ -225,7 +238,7 @@ def finish_samples(
     """
     inten = apply_speckle_noise(mean_intensity, cfg, rng)
     if cfg.tvg != "none":
-        inten = inten * tvg_gain(r, alpha_db_m, cfg.tvg)
+        inten *= tvg_gain(r, alpha_db_m, cfg.tvg) if tvg is None else tvg
     if cfg.log_compression:
         floor = cfg.display_floor_db
         if floor is None:

@@ -30,6 +30,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.sonar.echo_kernels import (
+    background_positions,
+    covered,
+    neighbour_log_slope,
+    share_energy,
+    splat_boxes,
+    sub_boxes,
+)
 from sim.sonar.rays import RayHits
 
 MIN_EXTENT_BINS = 0.5
@@ -44,7 +52,7 @@ class Echo:
 
     mean: np.ndarray
     labels: np.ndarray
-    hit_position: np.ndarray
+    hit_position: np.ndarray  # (bins, rows, 3) when form_echo(..., bins_first=True)
 
 
 def _dot3(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -58,32 +66,14 @@ def _splat_energy(rows, a, b, e, n_rows, n_bins):
     Returns (n_rows, n_bins). A kink of slope s at fractional position p = i + f adds
     s(1−f) at i+1 and s·f at i+2 of a second-difference array whose cumsum is the cell value.
     """
-    stride = n_bins + 3
-    rho = e / (b - a)
-    aa = np.clip(a, 0.0, n_bins)
-    bb = np.clip(b, 0.0, n_bins)
-    ia = np.floor(aa)
-    ib = np.floor(bb)
-    fa = aa - ia
-    fb = bb - ib
-    base = rows * stride + 1
-    ba = base + ia.astype(np.int64)
-    bbi = base + ib.astype(np.int64)
-    idx = np.concatenate([ba, ba + 1, bbi, bbi + 1])
-    val = np.concatenate([rho * (1.0 - fa), rho * fa, -rho * (1.0 - fb), -rho * fb])
-    d2 = np.bincount(idx, weights=val, minlength=n_rows * stride).astype(np.float64, copy=False)
-    d2 = d2.reshape(n_rows, stride)
-    out = np.ascontiguousarray(np.cumsum(d2, axis=1)[:, 1 : n_bins + 1])
-    np.maximum(out, 0.0, out=out)  # cumsum round-off must not produce negative energy
-    return out
-
-
-def _coverage(rows, start, end, n_rows, n_bins):
-    """Number of integer spans [start, end) of each row covering each cell (exact ints)."""
-    stride = n_bins + 1
-    c = np.bincount(rows * stride + start, minlength=n_rows * stride)
-    c -= np.bincount(rows * stride + end, minlength=n_rows * stride)
-    return np.cumsum(c.reshape(n_rows, stride), axis=1)[:, :n_bins]
+    return splat_boxes(
+        np.asarray(rows, np.int64),
+        np.asarray(a, np.float64),
+        np.asarray(b, np.float64),
+        np.asarray(e, np.float64),
+        n_rows,
+        n_bins,
+    )
 
 
 SUBBOX_BINS = 2.0  # wide footprints are split into sub-boxes of about this many bins
@@ -96,28 +86,10 @@ def _log_density_slope(idx, a, b, fc, energy, r_bins, link):
     From the neighbouring rays on the same surface (difference of the log box densities
     over the distance between footprint centres, averaged over both sides), else the
     spherical-spreading default −3/r (grazing seabed: echo per unit range ∝ r⁻³)."""
-    default = -3.0 / np.maximum(r_bins[idx], 1.0)
     if link is None or idx.size == 0:
-        return default
-    n = fc.size
-
-    def logrho(j):
-        return np.log(np.maximum(energy[j] / np.maximum(b[j] - a[j], 1e-9), 1e-300))
-
-    lr = logrho(idx)
-    tot = np.zeros(idx.size)
-    cnt = np.zeros(idx.size)
-    for side in (-1, 1):  # left and right neighbour (two passes, not per ray)
-        j = idx + side
-        inside = (j >= 0) & (j < n)
-        jj = np.clip(j, 0, n - 1)
-        pair = np.minimum(idx, jj)
-        ok = inside & link[np.clip(pair, 0, n - 2)]
-        dfc = fc[jj] - fc[idx]
-        ok &= np.abs(dfc) > 1e-6
-        tot += np.where(ok, (logrho(jj) - lr) / np.where(ok, dfc, 1.0), 0.0)
-        cnt += ok
-    return np.where(cnt > 0, tot / np.maximum(cnt, 1), default)
+        return -3.0 / np.maximum(r_bins[idx], 1.0)
+    log_rho = np.log(np.maximum(energy / np.maximum(b - a, 1e-9), 1e-300))
+    return neighbour_log_slope(idx, fc, log_rho, r_bins, link)
 
 
 def _splat_shaped(rows, a, b, e, fc, r_bins, link, n_rows, n_bins):
@@ -133,22 +105,14 @@ def _splat_shaped(rows, a, b, e, fc, r_bins, link, n_rows, n_bins):
         return _splat_energy(rows, a, b, e, n_rows, n_bins)
     slope = _log_density_slope(wide, a, b, fc, e, r_bins, link)
     kw = k[wide]
-    rep = np.repeat(np.arange(wide.size), kw)
-    first = np.repeat(np.cumsum(kw) - kw, kw)
-    j = np.arange(rep.size) - first
-    src = wide[rep]
-    step = (width[wide] / kw)[rep]
-    sa = a[src] + j * step
-    sb = sa + step
-    x = np.clip(slope[rep] * (0.5 * (sa + sb) - fc[src]), -30.0, 30.0)
-    w = np.exp(x)
-    w /= np.bincount(rep, w, minlength=wide.size)[rep]
+    src, sa, sb, x = sub_boxes(wide, kw, width, a, fc, slope)
+    e_sub = share_energy(kw, np.exp(x), e, src)
     narrow = np.flatnonzero(k == 1)
     return _splat_energy(
         np.concatenate([rows[narrow], rows[src]]),
         np.concatenate([a[narrow], sa]),
         np.concatenate([b[narrow], sb]),
-        np.concatenate([e[narrow], e[src] * w]),
+        np.concatenate([e[narrow], e_sub]),
         n_rows,
         n_bins,
     )
@@ -211,6 +175,7 @@ def form_echo(
     seabed=None,
     object_specular: tuple[float, float] | None = None,
     object_gain: float = 1.0,
+    bins_first: bool = False,
 ) -> Echo:
     """Bin ray hits into (rows, bins) mean intensity, labels and hit positions.
 
@@ -231,6 +196,9 @@ def form_echo(
     ``refl·(cos²θ + specular)`` there. object_specular: (σ peak / μ, lobe width rad) of a
     per-facet glint added to object hits (label ≥ 1), or None. object_gain: factor on the
     object hits' Lambert term (a target's own μ over the seabed's ``lambert_mu_db``).
+
+    bins_first: return ``hit_position`` as (bins, rows, 3) (the FLS image layout) instead
+    of (rows, bins, 3).
 
     Hit positions: cells holding a ray's footprint centre get the energy-weighted mean of
     those rays' hit points; covered cells between centres are linearly interpolated along
@@ -310,28 +278,27 @@ def form_echo(
     labels = np.full((n_rows, n_bins), -1, np.int32)
     other = bg & (lab == -2)
     if other.any():
-        labels[_coverage(rows[other], start[other], end[other], n_rows, n_bins) > 0] = -2
+        labels[covered(rows[other], start[other], end[other], n_rows, n_bins)] = -2
     sb = bg & (lab == 0)
-    labels[_coverage(rows[sb], start[sb], end[sb], n_rows, n_bins) > 0] = 0
+    labels[covered(rows[sb], start[sb], end[sb], n_rows, n_bins)] = 0
 
     # background hit positions: centre cells, then interpolation along range
     inr = np.flatnonzero(bg & (fc >= 0) & (fc < n_bins))
     cell = rows[inr] * n_bins + fc[inr].astype(np.int64)
     ew = energy[inr] + 1e-300
     ewr = ew * r[inr]
-    d_in = dirs[inr]
-    size = n_rows * n_bins
-    den = np.bincount(cell, ew, minlength=size)
-    hitpos = np.full((size, 3), np.nan)
-    has = den > 0
     flat_lab = labels.reshape(-1)
-    want = flat_lab != -1
-    if has.any():
-        known = np.flatnonzero(has)
-        query = np.flatnonzero(want)
-        for c in range(3):  # three coordinates, not per ray
-            num = np.bincount(cell, ewr * d_in[:, c], minlength=size)  # Σ E·r·d_c
-            hitpos[query, c] = origin[c] + np.interp(query, known, num[known] / den[known])
+    hitpos = background_positions(
+        cell,
+        ew,
+        ewr,
+        np.take(dirs, inr, axis=0),
+        np.asarray(origin, float),
+        flat_lab != -1,
+        n_rows,
+        n_bins,
+        bins_first,
+    )
 
     if any_obj:
         # few rays: expand each footprint into its cells (vectorized repeat); sort by id so
@@ -348,16 +315,18 @@ def form_echo(
         )
         e_cell = energy[o][rep] * frac
         ocell = rows[o][rep] * n_bins + cell_bin
-        mean += np.bincount(ocell, e_cell, minlength=size).reshape(n_rows, n_bins)
+        # sums per touched cell (np.unique's inverse keeps each cell's addition order)
+        u, inv = np.unique(ocell, return_inverse=True)
+        mean.reshape(-1)[u] += np.bincount(inv, e_cell, minlength=u.size)
         flat_lab[ocell] = lab[o][rep]
         win = flat_lab[ocell] == lab[o][rep]
         ew = e_cell[win] + 1e-300
-        cw = ocell[win]
-        den = np.bincount(cw, ew, minlength=size)
-        has = den > 0
+        u, inv = np.unique(ocell[win], return_inverse=True)
+        den = np.bincount(inv, ew, minlength=u.size)
         opos = origin[None, :] + dirs[o][rep][win] * r[o][rep][win][:, None]
+        out = (u % n_bins) * n_rows + u // n_bins if bins_first else u
         for c in range(3):
-            num = np.bincount(cw, ew * opos[:, c], minlength=size)
-            hitpos[has, c] = num[has] / den[has]
-    hitpos[flat_lab == -1] = np.nan
-    return Echo(mean, labels, hitpos.reshape(n_rows, n_bins, 3))
+            hitpos[out, c] = np.bincount(inv, ew * opos[:, c], minlength=u.size) / den
+    # cells labelled −1 are NaN already: the objects only wrote cells they label
+    shape = (n_bins, n_rows, 3) if bins_first else (n_rows, n_bins, 3)
+    return Echo(mean, labels, hitpos.reshape(shape))

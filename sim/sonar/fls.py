@@ -16,11 +16,12 @@ import cv2
 import mujoco
 import numpy as np
 
-from sim.sonar.acoustics import beam_pattern, finish_samples
+from sim.sonar.acoustics import beam_pattern, finish_samples, tvg_gain
 from sim.sonar.config import FLSConfig, WaterLike
 from sim.sonar.echo import form_echo
 from sim.sonar.glint import add_azimuth_sidelobes, azimuth_sidelobe_kernel, corner_returns
 from sim.sonar.mount import SonarMount
+from sim.sonar.rays import ray_cones
 
 
 @dataclass(frozen=True)
@@ -102,6 +103,8 @@ class ForwardLookingSonar:
         j = np.arange(nb * nr).reshape(nb, nr)
         self._neighbours = (j % nr < nr - 1).reshape(-1)[:-1]  # j and j+1 in the same beam
         self._sidelobes = None
+        self._cones = ray_cones(self._d_local)  # bounds for the moving-body test
+        self._tvg = tvg_gain(self.ranges, self.mount.alpha_db_m, c.acoustic.tvg)
 
     def _realism(self, mean, hits, origin, dirs):
         """Mean image plus the objects' corner returns and the azimuth sidelobes of the
@@ -154,7 +157,7 @@ class ForwardLookingSonar:
         p, R = m.pose(data, site)
         dirs = self._d_local @ R.T
         d_dirs = self._dd_local @ R.T
-        hits = m.backend.cast(data, p, dirs, m.cutoff)
+        hits = m.backend.cast(data, p, dirs, m.cutoff, self._cones.rotated(R))
         echo = form_echo(
             hits,
             p,
@@ -175,16 +178,16 @@ class ForwardLookingSonar:
             m.seabed,
             m.object_specular,
             m.object_gain,
+            bins_first=True,
         )
         mean = self._realism(echo.mean, hits, p, dirs)
-        r = np.broadcast_to(self.ranges[None, :], echo.mean.shape).reshape(-1)
-        img = finish_samples(mean.reshape(-1), r, m.alpha_db_m, c.acoustic, rng).reshape(mean.shape)
+        img = finish_samples(mean, self.ranges, m.alpha_db_m, c.acoustic, rng, self._tvg)
         return FLSFrame(
             image=np.ascontiguousarray(img.T),
             ranges=self.ranges,
             bearings=self.bearings,
             labels=np.ascontiguousarray(echo.labels.T),
-            hit_position=np.ascontiguousarray(echo.hit_position.transpose(1, 0, 2)),
+            hit_position=echo.hit_position,
             sensor_position=p,
             sensor_rotation=R,
             time=float(data.time),

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from sim.sonar.acoustics import beam_pattern, finish_samples
+from sim.sonar.acoustics import beam_pattern, finish_samples, tvg_gain
 from sim.sonar.config import MSISConfig, WaterLike
 from sim.sonar.echo import form_echo
 from sim.sonar.mount import SonarMount
@@ -114,6 +114,7 @@ class MSISSonar:
         self._zero_rows = np.zeros(self._az.size, np.int64)
         j = np.arange(nh * nv).reshape(nh, nv)
         self._neighbours = (j % nv < nv - 1).reshape(-1)[:-1]  # j and j+1 in the same column
+        self._tvg = tvg_gain(self.ranges, self.mount.alpha_db_m, c.acoustic.tvg)
 
     def head_angles(self) -> np.ndarray:
         """Head angles (rad) of one scan's pings, starting at the sector's start."""
@@ -150,7 +151,7 @@ class MSISSonar:
             1.0,
             self._neighbours,
         )
-        inten = finish_samples(echo.mean[0], self.ranges, m.alpha_db_m, c.acoustic, rng)
+        inten = finish_samples(echo.mean[0], self.ranges, m.alpha_db_m, c.acoustic, rng, self._tvg)
         return MSISPing(
             inten, echo.labels[0], echo.hit_position[0], float(head_angle), p, R, float(data.time)
         )

@@ -24,6 +24,7 @@ from typing import Protocol
 
 import mujoco
 import numpy as np
+from numpy.lib.stride_tricks import as_strided
 
 
 @dataclass(frozen=True)
@@ -38,9 +39,15 @@ class RayHits:
 
 class RayBackend(Protocol):
     def cast(
-        self, data: mujoco.MjData, origin: np.ndarray, dirs: np.ndarray, cutoff: float
+        self,
+        data: mujoco.MjData,
+        origin: np.ndarray,
+        dirs: np.ndarray,
+        cutoff: float,
+        cones: RayCones | None = None,
     ) -> RayHits:
-        """Cast unit directions ``dirs`` (N, 3) world frame from ``origin`` (3,)."""
+        """Cast unit directions ``dirs`` (N, 3) world frame from ``origin`` (3,);
+        ``cones``: optional bounding cones of ``dirs`` (a hint; results do not change)."""
         ...
 
 
@@ -54,7 +61,12 @@ class MujocoRays:
         self.flg_static = bool(flg_static)
 
     def cast(
-        self, data: mujoco.MjData, origin: np.ndarray, dirs: np.ndarray, cutoff: float
+        self,
+        data: mujoco.MjData,
+        origin: np.ndarray,
+        dirs: np.ndarray,
+        cutoff: float,
+        cones: RayCones | None = None,
     ) -> RayHits:
         n = dirs.shape[0]
         geom = np.empty(n, np.int32)
@@ -256,33 +268,35 @@ class EmbreeRays:
         return RayHits(dist, self.face_geom[prim], self.face_normal[prim])
 
     def cast(
-        self, data: mujoco.MjData, origin: np.ndarray, dirs: np.ndarray, cutoff: float
+        self,
+        data: mujoco.MjData,
+        origin: np.ndarray,
+        dirs: np.ndarray,
+        cutoff: float,
+        cones: RayCones | None = None,
     ) -> RayHits:
+        """``dirs`` (N, 3) unit world directions (float64 or float32); ``cones``: optional
+        world-frame bounding cones of ``dirs`` (:func:`ray_cones`, rotated with the
+        sensor), which restrict the moving-body test to the rays of chunks whose cone
+        meets a moving geom's bounding sphere (same rays found, far fewer tested)."""
         n = dirs.shape[0]
         if self.scene is not None:
-            o = np.empty((n, 3), np.float32)
-            o[:] = np.asarray(origin, float) - self.center
+            # one float32 origin for all rays (a zero-stride view: Embree only reads it)
+            o1 = (np.asarray(origin, float) - self.center).astype(np.float32)
+            o = as_strided(o1, shape=(n, 3), strides=(0, o1.itemsize), writeable=True)
             tmax = np.full(n, cutoff, np.float32)  # Embree ignores hits beyond tfar
             res = self.scene.run(o, np.ascontiguousarray(dirs, np.float32), tmax, output=1)
             prim = res["primID"]
-            hit = prim >= 0
-            dist = np.where(hit, res["tfar"], np.inf).astype(np.float64)
-            geom = self.face_geom[prim]  # −1 for misses
-            normal = self.face_normal[prim]  # zeros for misses
+            dist = res["tfar"].astype(np.float64)
+            dist[prim < 0] = np.inf
+            geom = np.take(self.face_geom, prim)  # −1 for misses
+            normal = np.take(self.face_normal, prim, axis=0)  # zeros for misses
         else:
             dist = np.full(n, np.inf)
             geom = np.full(n, -1, np.int32)
             normal = np.zeros((n, 3))
         if self.mujoco is not None:
-            # only rays passing within a moving geom's bounding sphere go to MuJoCo
-            c = data.geom_xpos[self.dyn_geoms] - origin  # (G, 3)
-            rb = self.model.geom_rbound[self.dyn_geoms]
-            t = dirs @ c.T  # (N, G) distance along each ray to the closest approach
-            d2 = np.sum(c * c, axis=1)[None, :] - t * t
-            near = (
-                (d2 <= (rb * rb)[None, :]) & (t >= -rb[None, :]) & (t - rb[None, :] <= cutoff)
-            ).any(axis=1)
-            idx = np.flatnonzero(near)
+            idx = self._near_moving(data, origin, dirs, cutoff, cones)
             if idx.size:
                 h = self.mujoco.cast(data, origin, dirs[idx], cutoff)
                 closer = h.dist < dist[idx]
@@ -291,6 +305,86 @@ class EmbreeRays:
                 geom[k] = h.geom[closer]
                 normal[k] = h.normal[closer]
         return RayHits(dist, geom, normal)
+
+    def _near_moving(self, data, origin, dirs, cutoff, cones) -> np.ndarray:
+        """Indices of the rays passing within a moving geom's bounding sphere (those go to
+        MuJoCo). With ``cones``, only the rays of chunks whose cone can meet a sphere are
+        tested ray by ray."""
+        c = data.geom_xpos[self.dyn_geoms] - origin  # (G, 3)
+        rb = self.model.geom_rbound[self.dyn_geoms]
+        cand = None if cones is None else cones.candidates(c, rb, cutoff)
+        sub = dirs if cand is None else dirs[cand]
+        if sub.shape[0] == 0:
+            return np.zeros(0, np.int64)
+        t = sub @ c.T  # (N, G) distance along each ray to the closest approach
+        d2 = np.sum(c * c, axis=1)[None, :] - t * t
+        near = ((d2 <= (rb * rb)[None, :]) & (t >= -rb[None, :]) & (t - rb[None, :] <= cutoff)).any(
+            axis=1
+        )
+        idx = np.flatnonzero(near)
+        return idx if cand is None else cand[idx]
+
+
+#: a geom whose bounding-sphere centre is nearer than this many radii to the origin is
+#: tested ray by ray (the cone bound assumes the sphere lies ahead of the origin)
+_CONE_NEAR_RADII = 2.0
+_CONE_MARGIN_RAD = 1e-6  # round-off allowance on every cone comparison
+
+
+@dataclass(frozen=True)
+class RayCones:
+    """Bounding cones of consecutive chunks of a ray bundle: chunk k holds rays
+    ``k·chunk … (k + 1)·chunk − 1``; every one lies within ``half_angle[k]`` (rad) of the
+    unit ``axes[k]`` (same frame as the rays). ``n``: number of rays."""
+
+    axes: np.ndarray
+    half_angle: np.ndarray
+    chunk: int
+    n: int
+
+    def rotated(self, R: np.ndarray) -> RayCones:
+        """The cones of the rays ``d @ R.T`` (e.g. sensor frame → world frame)."""
+        return RayCones(self.axes @ R.T, self.half_angle, self.chunk, self.n)
+
+    def candidates(self, centres: np.ndarray, radii: np.ndarray, cutoff: float):
+        """Ray indices (sorted int64) that may pass within ``radii`` (G,) m of the sphere
+        ``centres`` (G, 3) m (relative to the rays' origin) before ``cutoff`` m; None when
+        a sphere is too near the origin for the cone bound (test every ray)."""
+        dist = np.sqrt(np.sum(centres * centres, axis=1))
+        if np.any(dist <= _CONE_NEAR_RADII * radii):
+            return None
+        # a ray within distance rb of the centre has t ≥ sqrt(|c|² − rb²) along it
+        live = np.sqrt(dist * dist - radii * radii) - radii <= cutoff
+        if not live.any():
+            return np.zeros(0, np.int64)
+        u = centres[live] / dist[live, None]
+        alpha = np.arcsin(radii[live] / dist[live])  # angular radius of each sphere
+        ang = np.arccos(np.clip(self.axes @ u.T, -1.0, 1.0))  # (K, G)
+        hit = (ang <= self.half_angle[:, None] + alpha[None, :] + _CONE_MARGIN_RAD).any(axis=1)
+        chunks = np.flatnonzero(hit)
+        idx = (chunks[:, None] * self.chunk + np.arange(self.chunk)[None, :]).ravel()
+        return idx[idx < self.n]
+
+
+def ray_cones(dirs: np.ndarray, chunk: int = 64) -> RayCones:
+    """Bounding cones of consecutive chunks of ``chunk`` unit directions ``dirs`` (N, 3)
+    (see :class:`RayCones`); the axis is each chunk's normalised mean direction."""
+    d = np.asarray(dirs, float)
+    n = d.shape[0]
+    k = max(1, -(-n // chunk))
+    pad = (
+        np.concatenate([d, np.repeat(d[-1:], k * chunk - n, axis=0)])
+        if n
+        else np.zeros((k * chunk, 3))
+    )
+    blocks = pad.reshape(k, chunk, 3)
+    s = blocks.sum(axis=1)
+    ln = np.linalg.norm(s, axis=1)
+    axes = np.where(ln[:, None] > 1e-9, s / np.maximum(ln, 1e-300)[:, None], np.array([1.0, 0, 0]))
+    cosang = np.clip(np.einsum("kcj,kj->kc", blocks, axes), -1.0, 1.0)
+    half = np.arccos(cosang.min(axis=1))
+    half = np.where(ln > 1e-9, half, np.pi)
+    return RayCones(axes, half + _CONE_MARGIN_RAD, int(chunk), int(n))
 
 
 def make_backend(

@@ -12,18 +12,19 @@ range first, nadir in the middle, starboard on the right.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
 from scipy import ndimage
 
-from sim.sonar.acoustics import beam_pattern, finish_samples
+from sim.sonar.acoustics import beam_pattern, finish_samples, tvg_gain
 from sim.sonar.chain import SideScanChain
 from sim.sonar.config import SSSConfig, WaterLike
 from sim.sonar.echo import Echo, form_echo
 from sim.sonar.glint import corner_returns
 from sim.sonar.mount import SonarMount
+from sim.sonar.rays import RayCones, RayHits, ray_cones
 
 _PROBE_DEG = np.array([60.0, 65.0, 70.0, 75.0, 80.0, 85.0, 90.0])
 
@@ -68,13 +69,15 @@ class SSSPing:
 class RayFan:
     """The rays of one SSS ping in the sensor frame: directions (N, 3) unit; d_directions
     (N, 3) = ∂d/∂θ·Δθ; gain (N,) SL·b²·ΔΩ·μ; rows (N,) 0 port / 1 starboard; neighbours
-    (N − 1,) bool, True where rays j and j + 1 are consecutive in θ."""
+    (N − 1,) bool, True where rays j and j + 1 are consecutive in θ; cones: bounding
+    cones (sensor frame) of ``directions`` followed by the nadir probe's rays."""
 
     directions: np.ndarray
     d_directions: np.ndarray
     gain: np.ndarray
     rows: np.ndarray
     neighbours: np.ndarray
+    cones: RayCones
 
 
 class SideScanSonar:
@@ -139,19 +142,48 @@ class SideScanSonar:
             ]
         )
         self._fan_cache = None
+        self._tvg = tvg_gain(self.ranges, self.mount.alpha_db_m, c.acoustic.tvg)
         rz = c.acoustic.realism
         self.chain = SideScanChain(c, self.mount, self.ranges) if rz is not None else None
 
     # -- geometry -----------------------------------------------------------------------
-    def _altitude(self, data, origin, R) -> float:
+    def _altitude(self, data, origin, R, dirs=None, dist=None) -> float:
         """Median vertical distance (m) from the transducer down to the probe rays' hits
-        (7 rays per side at 60°–90° depression in the sensor frame); NaN if none hit."""
-        dirs = self._probe_local @ R.T
-        hits = self.mount.backend.cast(data, origin, dirs, self.config.max_range)
-        ok = np.isfinite(hits.dist)
+        (7 rays per side at 60°–90° depression in the sensor frame) within ``max_range``;
+        NaN if none hit. ``dirs``, ``dist``: the probe's world directions and hit
+        distances when already cast (with the ping's rays)."""
+        if dist is None:
+            dirs = self._probe_local @ R.T
+            dist = self.mount.backend.cast(data, origin, dirs, self.config.max_range).dist
+        ok = dist <= self.config.max_range  # inf (no hit) fails too
         if not np.any(ok):
             return float("nan")
-        return float(np.median(-dirs[ok, 2] * hits.dist[ok]))
+        return float(np.median(-dirs[ok, 2] * dist[ok]))
+
+    def _cast_ping(self, data, origin, R) -> tuple[float, RayFan, np.ndarray, RayHits]:
+        """Altitude (m), the ping's fan, its world directions (N, 3) and its hits. The
+        nadir probe is cast in one batch with the cached fan's rays; the fan is cast again
+        only when the probe's altitude selects another fan (each ray's hit does not depend
+        on the batch, so the result equals probing first and casting the fan after)."""
+        m = self.mount
+        prev = self._fan_cache[1] if self._fan_cache is not None else None
+        n_p = self._probe_local.shape[0]
+        if prev is None:
+            altitude = self._altitude(data, origin, R)
+        else:
+            n = prev.directions.shape[0]
+            both = np.empty((n + n_p, 3))
+            np.matmul(prev.directions, R.T, out=both[:n])
+            np.matmul(self._probe_local, R.T, out=both[n:])
+            h = m.backend.cast(data, origin, both, m.cutoff, prev.cones.rotated(R))
+            altitude = self._altitude(data, origin, R, both[n:], h.dist[n:])
+        fan = self.ray_fan(altitude)
+        if fan is prev:
+            hits = RayHits(h.dist[:n], h.geom[:n], h.normal[:n])
+            return altitude, fan, both[:n], hits
+        dirs = fan.directions @ R.T
+        cones = replace(fan.cones.rotated(R), n=dirs.shape[0])
+        return altitude, fan, dirs, m.backend.cast(data, origin, dirs, m.cutoff, cones)
 
     def depression_angles(self, altitude: float) -> tuple[np.ndarray, np.ndarray]:
         """Depression angles θ (rad) of the rays of one fan and their angular widths Δθ.
@@ -195,6 +227,7 @@ class SideScanSonar:
             gain=np.concatenate([parts[0][2], parts[1][2]]),
             rows=np.repeat(np.array([0, 1], np.int64), parts[0][0].shape[0]),
             neighbours=(j % nt < nt - 1)[:-1],
+            cones=ray_cones(np.concatenate([d_loc, self._probe_local])),
         )
         self._fan_cache = (key, fan)
         return fan
@@ -245,20 +278,16 @@ class SideScanSonar:
         S = c.samples_per_side
         p_port, R = m.pose(data, m.site_ids[0])
         p_stbd, _ = m.pose(data, m.site_ids[1])
-        altitude = self._altitude(data, p_port, R)
-        fan = self.ray_fan(altitude)
-        d_loc, dd_loc, gain, rows, nbrs = (
-            fan.directions,
-            fan.d_directions,
-            fan.gain,
-            fan.rows,
-            fan.neighbours,
-        )
-        n_side = d_loc.shape[0] // 2
-        dirs = d_loc @ R.T
+        if m.site_ids[0] == m.site_ids[1]:
+            altitude, fan, dirs, hits = self._cast_ping(data, p_port, R)
+        else:
+            altitude = self._altitude(data, p_port, R)
+            fan = self.ray_fan(altitude)
+            dirs = fan.directions @ R.T
+        dd_loc, gain, rows, nbrs = fan.d_directions, fan.gain, fan.rows, fan.neighbours
+        n_side = dirs.shape[0] // 2
         d_dirs = dd_loc @ R.T
         if m.site_ids[0] == m.site_ids[1]:
-            hits = m.backend.cast(data, p_port, dirs, m.cutoff)
             echo = form_echo(
                 hits,
                 p_port,
@@ -323,9 +352,7 @@ class SideScanSonar:
         if self.chain is not None:
             inten = self.chain.finish(mean, altitude, 0.5 * (p_port + p_stbd), rng)
         else:
-            r2 = np.concatenate([self.ranges, self.ranges])
-            inten = finish_samples(mean.reshape(-1), r2, m.alpha_db_m, c.acoustic, rng)
-            inten = inten.reshape(2, S)
+            inten = finish_samples(mean, self.ranges, m.alpha_db_m, c.acoustic, rng, self._tvg)
         return SSSPing(
             intensity=np.concatenate([inten[0, ::-1], inten[1]]),
             slant_range=self.slant_range,

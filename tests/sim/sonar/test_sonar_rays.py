@@ -5,7 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from sim.sonar.rays import EmbreeRays, MujocoRays, static_mesh_from_model
+from sim.sonar.rays import EmbreeRays, MujocoRays, ray_cones, static_mesh_from_model
 from sim.sonar.scenes import SceneObject, build_scene
 
 
@@ -66,3 +66,63 @@ def test_tessellated_static_primitives_within_tolerance():
     obj = (b.geom >= 1) & (a.geom == b.geom)
     assert np.mean(a.geom == b.geom) > 0.99
     assert np.mean(np.abs(a.dist[obj] - b.dist[obj]) < 1e-3) > 0.99
+
+
+def _near_brute(dirs, centres, radii, cutoff):
+    """Rays passing within each sphere's radius before the cutoff, ray by ray (the
+    definition: closest approach t along the ray, distance² |c|² − t²)."""
+    out = []
+    for i, d in enumerate(dirs):
+        for c, r in zip(centres, radii):
+            t = float(d @ c)
+            if float(c @ c) - t * t <= r * r and t >= -r and t - r <= cutoff:
+                out.append(i)
+                break
+    return np.array(out, np.int64)
+
+
+def test_ray_cones_keep_every_ray_near_a_sphere():
+    """The chunk cones only prune: on ordered fans (consecutive rays close in angle, as
+    the sonars cast them) and on shuffled rays, every ray that passes within a sphere
+    (brute force, ray by ray) is among the candidates, for spheres ahead, beside, behind
+    and out of reach; a sphere around the origin asks for every ray."""
+    rng = np.random.default_rng(3)
+    th = np.linspace(-1.2, 1.2, 700)
+    ps = np.linspace(-0.05, 0.05, 3)
+    T, P = np.meshgrid(th, ps)
+    fan = np.stack([np.sin(P), np.cos(P) * np.cos(T), -np.cos(P) * np.sin(T)], -1).reshape(-1, 3)
+    shuffled = rng.normal(size=(1500, 3))
+    shuffled /= np.linalg.norm(shuffled, axis=1, keepdims=True)
+    for dirs in (fan, shuffled):
+        cones = ray_cones(dirs, chunk=64)
+        for _ in range(40):
+            centres = rng.normal(size=(3, 3)) * rng.uniform(2.0, 40.0)
+            radii = rng.uniform(0.2, 2.0, 3)
+            want = _near_brute(dirs, centres, radii, 30.0)
+            cand = cones.candidates(centres, radii, 30.0)
+            got = np.arange(len(dirs)) if cand is None else cand
+            assert np.all(np.isin(want, got))
+            assert np.all(got < len(dirs))
+        assert cones.candidates(np.zeros((1, 3)), np.array([1.0]), 30.0) is None
+    # a sphere beside a narrow fan is pruned entirely; one out of reach as well
+    cones = ray_cones(fan[:700])  # ψ = −0.05 row: the plane x = −0.05 y-z
+    assert cones.candidates(np.array([[20.0, 0.0, 0.0]]), np.array([1.0]), 100.0).size == 0
+    assert cones.candidates(np.array([[0.0, 80.0, 0.0]]), np.array([1.0]), 30.0).size == 0
+
+
+def test_cast_with_cones_equals_cast_without():
+    """Embree backend with the moving-body test restricted by cones returns the same bytes
+    as the full ray-by-ray test, with a moving box inside the fan."""
+    objs = [SceneObject("box", (0.0, 8.0, 0.6), (0.6, 0.6, 0.6), moving=True)]
+    sc = build_scene(altitude=6.0, objects=objs, seabed_cells=40, relief=0.5)
+    m, d = sc.model, sc.data
+    emb = EmbreeRays(m, d, sc.vehicle_body)
+    o = d.site_xpos[sc.sites["sss"]].copy()
+    th = np.linspace(0.05, 1.5, 3000)
+    dirs = np.stack([0.02 * np.sin(40 * th), np.cos(th), -np.sin(th)], -1)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    a = emb.cast(d, o, dirs, 40.0)
+    b = emb.cast(d, o, dirs, 40.0, ray_cones(dirs))
+    assert np.any(np.isin(a.geom, emb.dyn_geoms))  # the moving box is hit
+    for x, y in ((a.dist, b.dist), (a.geom, b.geom), (a.normal, b.normal)):
+        assert x.tobytes() == y.tobytes()
