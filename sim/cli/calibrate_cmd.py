@@ -29,7 +29,7 @@ HELP = "fit a side-scan preset's realism levels to a real recording; write a pre
 #: the ray-cast model's free parameters (sim.sonar.effects.RealismConfig fields).
 RAYCAST_PARAMETERS = (
     Parameter("receiver_gain_db", -30.0, 20.0, 0.0),  # gain → saturation, headroom
-    Parameter("texture_db", 0.0, 6.0, 1.5),  # sediment texture → speckle CV, dB std
+    Parameter("texture_db", 0.0, 10.0, 1.5),  # sediment texture → speckle CV, dB std
     Parameter("range_cell_m", 0.005, 0.2, 0.02, log=True),  # speckle correlation in range
     Parameter("volume_sv_db", -120.0, -40.0, -80.0),  # reverberation → water column level
 )
@@ -58,7 +58,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report-pings", default="second", help="pings to report on too")
     parser.add_argument("--altitude", type=float, default=None, help="m (default: recording)")
     parser.add_argument("--max-range", type=float, default=None, help="m (default: recording)")
-    parser.add_argument("--sim-pings", type=int, default=32, help="pings per simulated run")
+    parser.add_argument("--sim-pings", type=int, default=128, help="pings per simulated run")
+    parser.add_argument(
+        "--sim-legs",
+        type=int,
+        default=8,
+        help="short legs 30 m apart the simulated pings are split into (so port and "
+        "starboard see the same sediment mix; pings/legs a multiple of 16)",
+    )
     parser.add_argument("--max-evaluations", type=int, default=60, help="model runs at most")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
@@ -102,7 +109,13 @@ def _model(args, altitude: float, max_range: float, samples: int):
 
     survey = RaycastSurvey(
         SurveySpec(
-            altitude, max_range, samples, pings=args.sim_pings, preset=args.preset, seed=args.seed
+            altitude,
+            max_range,
+            samples,
+            pings=args.sim_pings,
+            preset=args.preset,
+            seed=args.seed,
+            segments=args.sim_legs,
         )
     )
     return survey, RAYCAST_PARAMETERS, RealismConfig(full_scale=survey.full_scale({}))
@@ -186,6 +199,7 @@ def run(args: argparse.Namespace) -> int:
         "max_range_m": max_range,
         "samples_per_side": rec.intensity.shape[1] // 2,
         "sim_pings": args.sim_pings,
+        "sim_legs": args.sim_legs,
         "seed": args.seed,
         "evaluations": result.evaluations,
         "loss_before": result.initial_loss,

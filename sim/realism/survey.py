@@ -2,7 +2,11 @@
 realism chain (:mod:`sim.sonar.chain`), for calibration.
 
 The vehicle flies along +x at ``altitude_m`` and ``speed_mps``, pinging at the preset's
-rate; the sonar is ``preset(spec.preset, max_range=…, samples_per_side=…, <overrides>)``
+rate, in ``segments`` equal legs ``segment_spacing_m`` apart along x (one leg by default):
+a few short legs spread over the sediment patches give both sides the same mix of
+sediments for the cost of one long leg of the same pings (a 3-m leg sees different patches
+on port and starboard, so its saturation differs by side). Keep ``pings / segments`` a
+multiple of the 16-ping statistics tile so no tile spans two legs; the sonar is ``preset(spec.preset, max_range=…, samples_per_side=…, <overrides>)``
 with linear output (``log_compression=False``: intensity µPa² after TVG, gain and ADC).
 The rng is re-seeded with ``spec.seed`` at every call, so two calls with the same
 overrides give the same bytes (common random numbers for the fit).
@@ -25,7 +29,8 @@ from sim.sonar.sidescan import SideScanSonar
 class SurveySpec:
     """altitude_m: over the seabed, m; max_range_m: slant range of a side, m;
     samples_per_side; pings per simulated waterfall; speed_mps along track; preset name;
-    seed of the speckle/noise draws."""
+    seed of the speckle/noise draws; segments: legs the pings are split into (equal,
+    consecutive in the waterfall), their starts segment_spacing_m apart along x."""
 
     altitude_m: float
     max_range_m: float
@@ -34,6 +39,8 @@ class SurveySpec:
     speed_mps: float = 1.5
     preset: str = "deepeye680d_realistic"
     seed: int = 0
+    segments: int = 1
+    segment_spacing_m: float = 30.0
 
     def __post_init__(self) -> None:
         if not 0.5 <= self.altitude_m < self.max_range_m:
@@ -47,6 +54,20 @@ class SurveySpec:
             raise ValueError(f"pings = {self.pings}; allowed 32 .. 2000")
         if not self.speed_mps > 0:
             raise ValueError(f"speed_mps = {self.speed_mps}; must be > 0")
+        if not (1 <= self.segments <= self.pings and self.pings % self.segments == 0):
+            raise ValueError(
+                f"segments = {self.segments}; must divide pings ({self.pings}) into equal legs"
+            )
+        if not 0 < self.segment_spacing_m <= 1000:
+            raise ValueError(
+                f"segment_spacing_m = {self.segment_spacing_m}; allowed (0, 1000] m"
+            )
+
+    @property
+    def extent_m(self) -> float:
+        """Along-track length covered by the legs (m): for the seabed's size."""
+        leg = self.pings / self.segments * self.speed_mps
+        return (self.segments - 1) * self.segment_spacing_m + leg
 
 
 class RaycastSurvey:
@@ -58,7 +79,7 @@ class RaycastSurvey:
 
     @cached_property
     def scene(self) -> SonarScene:
-        size = 2.0 * (self.spec.max_range_m + self.spec.pings * self.spec.speed_mps) + 20.0
+        size = 2.0 * (self.spec.max_range_m + self.spec.extent_m) + 20.0
         return build_scene(altitude=self.spec.altitude_m, seabed_size=size, seabed_cells=40)
 
     def config(self, overrides: dict[str, Any]):
@@ -92,9 +113,11 @@ class RaycastSurvey:
         )
         rng = np.random.default_rng(spec.seed)
         step = spec.speed_mps / cfg.ping_rate_hz
-        x0 = -0.5 * spec.pings * step
+        per_leg = spec.pings // spec.segments
+        x0 = -0.5 * ((spec.segments - 1) * spec.segment_spacing_m + per_leg * step)
         rows = []
         for i in range(spec.pings):
-            sc.move_vehicle(x0 + i * step, 0.0, spec.altitude_m)
+            leg, k = divmod(i, per_leg)
+            sc.move_vehicle(x0 + leg * spec.segment_spacing_m + k * step, 0.0, spec.altitude_m)
             rows.append(sonar.ping(sc.data, rng).intensity)
         return np.asarray(rows, dtype=np.float64)

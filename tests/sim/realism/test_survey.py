@@ -39,3 +39,20 @@ def test_bad_spec_is_named(kw, message):
 def test_unknown_preset_fails_early():
     with pytest.raises(ValueError, match="nope"):
         RaycastSurvey(SurveySpec(5.0, 20.0, 128, preset="nope"))
+
+
+def test_legs_are_placed_segment_spacing_apart():
+    """Two legs of 16 pings: the vehicle's x steps by speed / ping rate inside a leg and
+    jumps to the next leg's start 30 m after the previous start; legs must divide pings."""
+    two = RaycastSurvey(SurveySpec(5.0, 20.0, 128, pings=32, segments=2, segment_spacing_m=30.0))
+    xs = []
+    move = two.scene.move_vehicle
+    two.scene.move_vehicle = lambda x, y=None, z=None: (xs.append(x), move(x, y, z))
+    w = two({"receiver_gain_db": -20.0})
+    assert w.shape == (32, 256) and np.all(np.isfinite(w))
+    step = 1.5 / two.config({}).ping_rate_hz
+    assert np.allclose(np.diff(xs[:16]), step) and np.allclose(np.diff(xs[16:]), step)
+    assert xs[16] - xs[0] == pytest.approx(30.0)
+    assert two.spec.extent_m == pytest.approx(30.0 + 16 * 1.5)
+    with pytest.raises(ValueError, match="segments"):
+        SurveySpec(5.0, 20.0, 128, pings=32, segments=3)
