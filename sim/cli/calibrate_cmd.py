@@ -12,6 +12,7 @@ import argparse
 import json
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -34,18 +35,35 @@ RAYCAST_PARAMETERS = (
     Parameter("volume_sv_db", -120.0, -40.0, -80.0),  # reverberation → water column level
 )
 
+#: the display model's (recreational units that store the log-compressed 8-bit display):
+#: the display mapping replaces the receiver gain, the speckle and texture stay.
+DISPLAY_PARAMETERS = (
+    Parameter("display_floor_db", 60.0, 180.0, 123.0),  # display black level → brightness
+    Parameter("dynamic_range_db", 5.0, 120.0, 50.0),  # display contrast → CV, dB std
+    Parameter("texture_db", 0.0, 10.0, 1.5),
+    Parameter("range_cell_m", 0.005, 0.5, 0.02, log=True),
+    Parameter("volume_sv_db", -120.0, -30.0, -80.0),
+)
+DISPLAY_BITS = 8
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("real", help="real recording: .xtf, .npy/.npz or image waterfall")
-    parser.add_argument("--preset", default="deepeye680d_realistic", help="side-scan preset")
+    parser.add_argument(
+        "--preset",
+        default="deepeye680d_realistic",
+        help="side-scan preset: built-in name or preset file (e.g. an earlier calibration); "
+        "the fit starts from its values",
+    )
     parser.add_argument("--out", required=True, help="preset TOML to write")
     parser.add_argument(
         "--model",
-        choices=("raycast", "statistical"),
+        choices=("raycast", "raycast-display", "statistical"),
         default="raycast",
-        help="raycast: the simulator's sonar over a flat seabed (default); statistical: "
-        "the fast statistical waterfall (slam.realism.synthetic; its values are not "
-        "simulator fields)",
+        help="raycast: the simulator's sonar over a flat seabed (default); "
+        "raycast-display: the same, stored as an 8-bit log-compressed display "
+        "(recreational units such as Humminbird); statistical: the fast statistical "
+        "waterfall (slam.realism.synthetic; its values are not simulator fields)",
     )
     parser.add_argument("--scale", choices=("intensity", "amplitude"), default=None)
     parser.add_argument(
@@ -116,9 +134,14 @@ def _model(args, altitude: float, max_range: float, samples: int):
             preset=args.preset,
             seed=args.seed,
             segments=args.sim_legs,
+            display_bits=DISPLAY_BITS if args.model == "raycast-display" else 0,
         )
     )
-    return survey, RAYCAST_PARAMETERS, RealismConfig(full_scale=survey.full_scale({}))
+    free = DISPLAY_PARAMETERS if args.model == "raycast-display" else RAYCAST_PARAMETERS
+    params = tuple(
+        replace(p, initial=min(max(survey.start_value(p.name), p.lo), p.hi)) for p in free
+    )
+    return survey, params, RealismConfig(full_scale=survey.full_scale({}))
 
 
 def _toml_value(v) -> str:
@@ -133,8 +156,11 @@ def _toml_value(v) -> str:
     return json.dumps(str(v))
 
 
-def preset_toml(args, values, result, meta) -> str:
-    """The preset file: [sonar] preset + overrides (scenario-ready), [calibration] record."""
+def preset_toml(args, values, result, meta, base=None) -> str:
+    """The preset file: [sonar] preset + overrides (scenario-ready), [calibration] record.
+    ``base``: (built-in preset, its file's overrides) when ``--preset`` was a preset file
+    (the fitted values go over them)."""
+    name, kept = base or (args.preset, {})
     lines = [
         f"# Sonar preset calibrated by `undersea calibrate` to {meta['recording']}.",
         "# In a scenario: [[vehicles.sonars]] preset = <sonar.preset>, overrides = <sonar.overrides>",
@@ -145,7 +171,8 @@ def preset_toml(args, values, result, meta) -> str:
             "[statistical_model]",
         ]
     else:
-        lines += ["[sonar]", f"preset = {_toml_value(args.preset)}", "", "[sonar.overrides]"]
+        lines += ["[sonar]", f"preset = {_toml_value(name)}", "", "[sonar.overrides]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in kept.items() if k not in values]
     lines += [f"{k} = {_toml_value(float(v))}" for k, v in values.items()]
     lines += ["", "[calibration]"]
     lines += [f"{k} = {_toml_value(v)}" for k, v in meta.items()]
@@ -205,7 +232,9 @@ def run(args: argparse.Namespace) -> int:
         "loss_before": result.initial_loss,
         "loss_after": result.loss,
     }
-    atomic_write(out, preset_toml(args, result.values, result, meta).encode())
+    base = getattr(simulate, "base", None)
+    base = (base, simulate.base_overrides) if base else None
+    atomic_write(out, preset_toml(args, result.values, result, meta, base).encode())
     if args.save_sim:
         np.save(args.save_sim, np.asarray(simulate(result.values), dtype=np.float32))
     before, after = compare(result.before, target), compare(result.after, target)

@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from sim.sonar.config import preset
+from sim.sonar.config import PRESETS, preset
+from sim.sonar.preset_file import is_preset_file, load_preset_file
 from sim.sonar.scenes import SonarScene, build_scene
 from sim.sonar.sidescan import SideScanSonar
 
@@ -28,9 +29,14 @@ from sim.sonar.sidescan import SideScanSonar
 @dataclass(frozen=True)
 class SurveySpec:
     """altitude_m: over the seabed, m; max_range_m: slant range of a side, m;
-    samples_per_side; pings per simulated waterfall; speed_mps along track; preset name;
+    samples_per_side; pings per simulated waterfall; speed_mps along track; preset name
+    (built-in, or a preset file: sim.sonar.preset_file);
     seed of the speckle/noise draws; segments: legs the pings are split into (equal,
-    consecutive in the waterfall), their starts segment_spacing_m apart along x."""
+    consecutive in the waterfall), their starts segment_spacing_m apart along x;
+    display_bits: 0 = linear intensity after TVG, gain and ADC (µPa²); n > 0 = what a
+    recreational unit stores: the log-compressed display (display_floor_db,
+    dynamic_range_db) quantised to n-bit levels L, returned as L² (the readers take stored
+    samples as amplitudes)."""
 
     altitude_m: float
     max_range_m: float
@@ -41,6 +47,7 @@ class SurveySpec:
     seed: int = 0
     segments: int = 1
     segment_spacing_m: float = 30.0
+    display_bits: int = 0
 
     def __post_init__(self) -> None:
         if not 0.5 <= self.altitude_m < self.max_range_m:
@@ -58,10 +65,10 @@ class SurveySpec:
             raise ValueError(
                 f"segments = {self.segments}; must divide pings ({self.pings}) into equal legs"
             )
+        if not (isinstance(self.display_bits, int) and 0 <= self.display_bits <= 16):
+            raise ValueError(f"display_bits = {self.display_bits!r}; allowed 0 .. 16")
         if not 0 < self.segment_spacing_m <= 1000:
-            raise ValueError(
-                f"segment_spacing_m = {self.segment_spacing_m}; allowed (0, 1000] m"
-            )
+            raise ValueError(f"segment_spacing_m = {self.segment_spacing_m}; allowed (0, 1000] m")
 
     @property
     def extent_m(self) -> float:
@@ -75,7 +82,26 @@ class RaycastSurvey:
 
     def __init__(self, spec: SurveySpec):
         self.spec = spec
-        preset(spec.preset)  # fails early on an unknown preset name
+        self.base, self.base_overrides = spec.preset, {}
+        if spec.preset not in PRESETS and is_preset_file(spec.preset):
+            pf = load_preset_file(spec.preset)  # a calibrated preset: start from its values
+            self.base, self.base_overrides = pf.base, dict(pf.overrides)
+        preset(self.base)  # fails early on an unknown preset name
+
+    def start_value(self, name: str) -> float:
+        """The preset's own value of a realism or acoustic field (``range_cell_m`` None →
+        the sonar's range resolution c/2B; ``display_floor_db`` None → its default
+        SL + 10·log10 μ − 60 dB), to start a fit from."""
+        cfg = self.config({})
+        ac = cfg.acoustic
+        v = getattr(ac.realism, name) if hasattr(ac.realism, name) else getattr(ac, name)
+        if v is None and name == "range_cell_m":
+            v = cfg.range_resolution
+        if v is None and name == "display_floor_db":
+            v = ac.source_level_db + ac.lambert_mu_db - 60.0
+        if v is None:
+            raise ValueError(f"preset {self.spec.preset!r}: {name} is off; cannot fit it")
+        return float(v)
 
     @cached_property
     def scene(self) -> SonarScene:
@@ -85,15 +111,21 @@ class RaycastSurvey:
     def config(self, overrides: dict[str, Any]):
         """The sonar config with the spec's geometry and the given realism overrides."""
         return preset(
-            self.spec.preset,
-            max_range=self.spec.max_range_m,
-            samples_per_side=self.spec.samples_per_side,
-            log_compression=False,
-            **overrides,
+            self.base,
+            **{
+                **self.base_overrides,
+                "max_range": self.spec.max_range_m,
+                "samples_per_side": self.spec.samples_per_side,
+                "log_compression": self.spec.display_bits > 0,
+                **overrides,
+            },
         )
 
     def full_scale(self, overrides: dict[str, Any]) -> float | None:
-        """Clip level of the output intensity (µPa²), None when the ADC is off."""
+        """Clip level of the output intensity (µPa²; display: the top level²), None when
+        the ADC is off."""
+        if self.spec.display_bits:
+            return float((2**self.spec.display_bits - 1) ** 2)
         rz = self.config(overrides).acoustic.realism
         if rz is None or rz.bit_depth <= 0:
             return None
@@ -120,4 +152,7 @@ class RaycastSurvey:
             leg, k = divmod(i, per_leg)
             sc.move_vehicle(x0 + leg * spec.segment_spacing_m + k * step, 0.0, spec.altitude_m)
             rows.append(sonar.ping(sc.data, rng).intensity)
-        return np.asarray(rows, dtype=np.float64)
+        out = np.asarray(rows, dtype=np.float64)
+        if spec.display_bits:
+            out = np.round(out * (2**spec.display_bits - 1)) ** 2
+        return out

@@ -74,9 +74,7 @@ def load_preset_file(name_or_path: str | Path) -> PresetFile:
         )
     sonar = doc.get("sonar")
     if not isinstance(sonar, dict) or not isinstance(sonar.get("preset"), str):
-        raise ValueError(
-            f"sonar preset file {str(path)!r}: needs [sonar] preset = <built-in name>"
-        )
+        raise ValueError(f"sonar preset file {str(path)!r}: needs [sonar] preset = <built-in name>")
     base = sonar["preset"]
     if base not in PRESETS:
         raise ValueError(
