@@ -65,6 +65,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(recreational units such as Humminbird); statistical: the fast statistical "
         "waterfall (slam.realism.synthetic; its values are not simulator fields)",
     )
+    parser.add_argument(
+        "--gain",
+        choices=("solve", "fit"),
+        default="solve",
+        help="raycast model: solve the receiver gain from the recording's clipped fraction "
+        "at every model run (default; needs a recording that clips) or fit it as a "
+        "parameter",
+    )
     parser.add_argument("--scale", choices=("intensity", "amplitude"), default=None)
     parser.add_argument(
         "--bottom",
@@ -113,7 +121,7 @@ def survey_geometry(rec, altitude: float | None, max_range: float | None) -> tup
     return float(altitude), float(rng_m)
 
 
-def _model(args, altitude: float, max_range: float, samples: int):
+def _model(args, altitude: float, max_range: float, samples: int, target):
     """(simulate callable, parameters, statistics config of the model's images)."""
     if args.model == "statistical":
         model = StatisticalSideScan(
@@ -123,7 +131,11 @@ def _model(args, altitude: float, max_range: float, samples: int):
             seed=args.seed,
         )
         return model, PARAMETERS, RealismConfig(full_scale=FULL_SCALE)
-    from sim.realism.survey import RaycastSurvey, SurveySpec  # mujoco only for this model
+    from sim.realism.survey import (  # mujoco only for this model
+        GainProfiledSurvey,
+        RaycastSurvey,
+        SurveySpec,
+    )
 
     survey = RaycastSurvey(
         SurveySpec(
@@ -138,10 +150,15 @@ def _model(args, altitude: float, max_range: float, samples: int):
         )
     )
     free = DISPLAY_PARAMETERS if args.model == "raycast-display" else RAYCAST_PARAMETERS
+    model = survey
+    if args.model == "raycast" and args.gain == "solve":
+        sat = (target.port.saturation, target.starboard.saturation)
+        model = GainProfiledSurvey(survey, sat)
+        free = tuple(p for p in free if p.name != "receiver_gain_db")
     params = tuple(
         replace(p, initial=min(max(survey.start_value(p.name), p.lo), p.hi)) for p in free
     )
-    return survey, params, RealismConfig(full_scale=survey.full_scale({}))
+    return model, params, RealismConfig(full_scale=survey.full_scale({}))
 
 
 def _toml_value(v) -> str:
@@ -201,7 +218,9 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise ValueError(f"REAL {args.real}: {exc}") from exc
         altitude, max_range = survey_geometry(fit_rec, args.altitude, args.max_range)
-        simulate, params, model_cfg = _model(args, altitude, max_range, rec.intensity.shape[1] // 2)
+        simulate, params, model_cfg = _model(
+            args, altitude, max_range, rec.intensity.shape[1] // 2, target
+        )
         result = calibrate(
             simulate,
             target,
@@ -209,6 +228,9 @@ def run(args: argparse.Namespace) -> int:
             max_evaluations=args.max_evaluations,
             model_config=model_cfg,
         )
+        if hasattr(simulate, "gain_for"):  # the solved gain belongs to the preset too
+            gain = simulate.gain_for(result.values)
+            result = replace(result, values={**result.values, "receiver_gain_db": gain})
     except (ValueError, CalibrationError) as exc:
         best = getattr(exc, "best", None)
         if best is not None:  # show where the fit got to, on stderr

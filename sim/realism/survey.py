@@ -22,6 +22,7 @@ import numpy as np
 
 from sim.sonar.config import PRESETS, preset
 from sim.sonar.preset_file import is_preset_file, load_preset_file
+from sim.sonar.receiver import digitise
 from sim.sonar.scenes import SonarScene, build_scene
 from sim.sonar.sidescan import SideScanSonar
 
@@ -156,3 +157,50 @@ class RaycastSurvey:
         if spec.display_bits:
             out = np.round(out * (2**spec.display_bits - 1)) ** 2
         return out
+
+
+class GainProfiledSurvey:
+    """The survey with the receiver gain solved, not searched: each call simulates with
+    the gain at 0 dB and the ADC off, then sets ``receiver_gain_db`` so that the clipped
+    fraction of each side is the target's (the gain that clips a fraction t of a side is
+    full scale / its (1 − t) quantile; the two sides' gains averaged in dB) and applies
+    :func:`sim.sonar.receiver.digitise` with the preset's ADC, which is what the sonar
+    does after TVG. The fit then has one parameter less, and the one whose objective is
+    flat where nothing clips. ``gains[key]`` remembers the gain of each call."""
+
+    def __init__(self, survey: RaycastSurvey, saturation: tuple[float, float]):
+        if not all(0.0 < t < 0.5 for t in saturation):
+            raise ValueError(
+                f"target saturation {saturation}: the gain is solved only for a recording "
+                "that clips (0 < fraction < 0.5 per side); fit receiver_gain_db instead"
+            )
+        rz = survey.config({}).acoustic.realism
+        if rz is None or rz.bit_depth <= 0:
+            raise ValueError(f"preset {survey.spec.preset!r} has no ADC (bit_depth 0)")
+        self.survey, self.saturation = survey, tuple(saturation)
+        self.base, self.base_overrides, self.spec = survey.base, survey.base_overrides, survey.spec
+        self.gains: dict[tuple, float] = {}
+
+    def full_scale(self, overrides: dict[str, Any]) -> float | None:
+        return self.survey.full_scale(overrides)
+
+    def __call__(self, overrides: dict[str, Any]) -> np.ndarray:
+        ov = {k: v for k, v in overrides.items() if k != "receiver_gain_db"}
+        raw = self.survey({**ov, "receiver_gain_db": 0.0, "bit_depth": 0})
+        rz = self.survey.config(ov).acoustic.realism
+        s = raw.shape[1] // 2
+        tops = [
+            np.quantile(side, 1.0 - t) for side, t in zip((raw[:, :s], raw[:, s:]), self.saturation)
+        ]
+        fs_db = rz.full_scale_db
+        gain = float(np.mean([fs_db - 10.0 * np.log10(max(q, 1e-300)) for q in tops]))
+        self.gains[tuple(sorted(ov.items()))] = gain
+        return digitise(raw, gain, rz.bit_depth, fs_db)
+
+    def gain_for(self, overrides: dict[str, Any]) -> float:
+        """The solved gain (dB) of an earlier call with these overrides."""
+        ov = {k: v for k, v in overrides.items() if k != "receiver_gain_db"}
+        key = tuple(sorted(ov.items()))
+        if key not in self.gains:
+            self(ov)
+        return self.gains[key]

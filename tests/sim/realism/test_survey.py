@@ -56,3 +56,23 @@ def test_legs_are_placed_segment_spacing_apart():
     assert two.spec.extent_m == pytest.approx(30.0 + 16 * 1.5)
     with pytest.raises(ValueError, match="segments"):
         SurveySpec(5.0, 20.0, 128, pings=32, segments=3)
+
+
+def test_solved_gain_is_the_simulators_gain_and_clips_the_target_fraction():
+    """GainProfiledSurvey: its image equals the plain survey run with the solved gain (the
+    sonar's own ADC; up to float32 rounding of the gain-free image); the gain is the dB
+    mean of the two sides' own gains, so with one target the brighter side clips at least
+    that fraction and the darker at most (a 32-ping leg's sides differ by ~8 dB here)."""
+    from sim.realism.survey import GainProfiledSurvey
+
+    survey = RaycastSurvey(SPEC)
+    prof = GainProfiledSurvey(survey, (0.02, 0.02))
+    img = prof({"texture_db": 2.0})
+    gain = prof.gain_for({"texture_db": 2.0})
+    ref = survey({"texture_db": 2.0, "receiver_gain_db": gain})
+    fs = survey.full_scale({})
+    assert np.mean(np.isclose(img, ref, rtol=1e-4, atol=1e-9 * fs)) > 0.999
+    clipped = sorted(np.mean(side >= fs * (1 - 1e-9)) for side in (img[:, :128], img[:, 128:]))
+    assert clipped[0] <= 0.02 + 1e-3 and clipped[1] >= 0.02 - 1e-3
+    with pytest.raises(ValueError, match="clips"):
+        GainProfiledSurvey(survey, (0.0, 0.01))
