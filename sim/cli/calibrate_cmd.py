@@ -93,6 +93,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "starboard see the same sediment mix; pings/legs a multiple of 16)",
     )
     parser.add_argument("--max-evaluations", type=int, default=60, help="model runs at most")
+    parser.add_argument(
+        "--good-enough",
+        type=float,
+        default=0.8,
+        help="stop at the first model run with every statistic within this many "
+        "tolerances (default 0.8; 0 = search until the budget or the optimizer stops)",
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
         "--save-sim",
@@ -226,6 +233,7 @@ def run(args: argparse.Namespace) -> int:
             target,
             params,
             max_evaluations=args.max_evaluations,
+            good_enough=args.good_enough,
             model_config=model_cfg,
         )
         if hasattr(simulate, "gain_for"):  # the solved gain belongs to the preset too
