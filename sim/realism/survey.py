@@ -172,7 +172,7 @@ class GainProfiledSurvey:
         if not all(0.0 < t < 0.5 for t in saturation):
             raise ValueError(
                 f"target saturation {saturation}: the gain is solved only for a recording "
-                "that clips (0 < fraction < 0.5 per side); fit receiver_gain_db instead"
+                "that clips (0 < fraction < 0.5 per side); use --gain fit"
             )
         rz = survey.config({}).acoustic.realism
         if rz is None or rz.bit_depth <= 0:
