@@ -76,3 +76,21 @@ def test_solved_gain_is_the_simulators_gain_and_clips_the_target_fraction():
     assert clipped[0] <= 0.02 + 1e-3 and clipped[1] >= 0.02 - 1e-3
     with pytest.raises(ValueError, match="clips"):
         GainProfiledSurvey(survey, (0.0, 0.01))
+
+
+def test_display_mode_is_the_quantised_log_display_of_the_linear_output():
+    """display_bits = 8: each sample is L² with L = round(255 · clip((10 log10 I − floor) /
+    range, 0, 1)) of the linear survey's intensity I (same seed, same draws), the way a
+    recreational unit stores its display and the readers square it back."""
+    import dataclasses
+
+    from sim.sonar.acoustics import compress_log
+
+    spec = dataclasses.replace(SPEC, display_bits=8)
+    ov = {"display_floor_db": 120.0, "dynamic_range_db": 60.0}
+    disp = RaycastSurvey(spec)(ov)
+    lin = RaycastSurvey(SPEC)(ov)
+    ref = np.round(255.0 * compress_log(lin, 120.0, 60.0)) ** 2
+    assert np.mean(disp == ref) > 0.999
+    assert RaycastSurvey(spec).full_scale({}) == 255.0**2
+    assert np.array_equal(np.sqrt(disp), np.round(np.sqrt(disp)))
