@@ -12,6 +12,7 @@ import argparse
 import json
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -29,23 +30,48 @@ HELP = "fit a side-scan preset's realism levels to a real recording; write a pre
 #: the ray-cast model's free parameters (sim.sonar.effects.RealismConfig fields).
 RAYCAST_PARAMETERS = (
     Parameter("receiver_gain_db", -30.0, 20.0, 0.0),  # gain → saturation, headroom
-    Parameter("texture_db", 0.0, 6.0, 1.5),  # sediment texture → speckle CV, dB std
+    Parameter("texture_db", 0.0, 10.0, 1.5),  # sediment texture → speckle CV, dB std
     Parameter("range_cell_m", 0.005, 0.2, 0.02, log=True),  # speckle correlation in range
     Parameter("volume_sv_db", -120.0, -40.0, -80.0),  # reverberation → water column level
 )
 
+#: the display model's (recreational units that store the log-compressed 8-bit display):
+#: the display mapping replaces the receiver gain, the speckle and texture stay.
+DISPLAY_PARAMETERS = (
+    Parameter("display_floor_db", 60.0, 180.0, 123.0),  # display black level → brightness
+    Parameter("dynamic_range_db", 5.0, 120.0, 50.0),  # display contrast → CV, dB std
+    Parameter("texture_db", 0.0, 10.0, 1.5),
+    Parameter("range_cell_m", 0.005, 0.5, 0.02, log=True),
+    Parameter("volume_sv_db", -120.0, -30.0, -80.0),
+)
+DISPLAY_BITS = 8
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("real", help="real recording: .xtf, .npy/.npz or image waterfall")
-    parser.add_argument("--preset", default="deepeye680d_realistic", help="side-scan preset")
+    parser.add_argument(
+        "--preset",
+        default="deepeye680d_realistic",
+        help="side-scan preset: built-in name or preset file (e.g. an earlier calibration); "
+        "the fit starts from its values",
+    )
     parser.add_argument("--out", required=True, help="preset TOML to write")
     parser.add_argument(
         "--model",
-        choices=("raycast", "statistical"),
+        choices=("raycast", "raycast-display", "statistical"),
         default="raycast",
-        help="raycast: the simulator's sonar over a flat seabed (default); statistical: "
-        "the fast statistical waterfall (slam.realism.synthetic; its values are not "
-        "simulator fields)",
+        help="raycast: the simulator's sonar over a flat seabed (default); "
+        "raycast-display: the same, stored as an 8-bit log-compressed display "
+        "(recreational units such as Humminbird); statistical: the fast statistical "
+        "waterfall (slam.realism.synthetic; its values are not simulator fields)",
+    )
+    parser.add_argument(
+        "--gain",
+        choices=("solve", "fit"),
+        default="solve",
+        help="raycast model: solve the receiver gain from the recording's clipped fraction "
+        "at every model run (default; needs a recording that clips) or fit it as a "
+        "parameter",
     )
     parser.add_argument("--scale", choices=("intensity", "amplitude"), default=None)
     parser.add_argument(
@@ -58,8 +84,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report-pings", default="second", help="pings to report on too")
     parser.add_argument("--altitude", type=float, default=None, help="m (default: recording)")
     parser.add_argument("--max-range", type=float, default=None, help="m (default: recording)")
-    parser.add_argument("--sim-pings", type=int, default=32, help="pings per simulated run")
+    parser.add_argument("--sim-pings", type=int, default=128, help="pings per simulated run")
+    parser.add_argument(
+        "--sim-legs",
+        type=int,
+        default=8,
+        help="short legs 30 m apart the simulated pings are split into (so port and "
+        "starboard see the same sediment mix; pings/legs a multiple of 16)",
+    )
     parser.add_argument("--max-evaluations", type=int, default=60, help="model runs at most")
+    parser.add_argument(
+        "--good-enough",
+        type=float,
+        default=0.8,
+        help="stop at the first model run with every statistic within this many "
+        "tolerances (default 0.8; 0 = search until the budget or the optimizer stops)",
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
         "--save-sim",
@@ -88,7 +128,7 @@ def survey_geometry(rec, altitude: float | None, max_range: float | None) -> tup
     return float(altitude), float(rng_m)
 
 
-def _model(args, altitude: float, max_range: float, samples: int):
+def _model(args, altitude: float, max_range: float, samples: int, target):
     """(simulate callable, parameters, statistics config of the model's images)."""
     if args.model == "statistical":
         model = StatisticalSideScan(
@@ -98,14 +138,34 @@ def _model(args, altitude: float, max_range: float, samples: int):
             seed=args.seed,
         )
         return model, PARAMETERS, RealismConfig(full_scale=FULL_SCALE)
-    from sim.realism.survey import RaycastSurvey, SurveySpec  # mujoco only for this model
+    from sim.realism.survey import (  # mujoco only for this model
+        GainProfiledSurvey,
+        RaycastSurvey,
+        SurveySpec,
+    )
 
     survey = RaycastSurvey(
         SurveySpec(
-            altitude, max_range, samples, pings=args.sim_pings, preset=args.preset, seed=args.seed
+            altitude,
+            max_range,
+            samples,
+            pings=args.sim_pings,
+            preset=args.preset,
+            seed=args.seed,
+            segments=args.sim_legs,
+            display_bits=DISPLAY_BITS if args.model == "raycast-display" else 0,
         )
     )
-    return survey, RAYCAST_PARAMETERS, RealismConfig(full_scale=survey.full_scale({}))
+    free = DISPLAY_PARAMETERS if args.model == "raycast-display" else RAYCAST_PARAMETERS
+    model = survey
+    if args.model == "raycast" and args.gain == "solve":
+        sat = (target.port.saturation, target.starboard.saturation)
+        model = GainProfiledSurvey(survey, sat)
+        free = tuple(p for p in free if p.name != "receiver_gain_db")
+    params = tuple(
+        replace(p, initial=min(max(survey.start_value(p.name), p.lo), p.hi)) for p in free
+    )
+    return model, params, RealismConfig(full_scale=survey.full_scale({}))
 
 
 def _toml_value(v) -> str:
@@ -120,8 +180,11 @@ def _toml_value(v) -> str:
     return json.dumps(str(v))
 
 
-def preset_toml(args, values, result, meta) -> str:
-    """The preset file: [sonar] preset + overrides (scenario-ready), [calibration] record."""
+def preset_toml(args, values, result, meta, base=None) -> str:
+    """The preset file: [sonar] preset + overrides (scenario-ready), [calibration] record.
+    ``base``: (built-in preset, its file's overrides) when ``--preset`` was a preset file
+    (the fitted values go over them)."""
+    name, kept = base or (args.preset, {})
     lines = [
         f"# Sonar preset calibrated by `undersea calibrate` to {meta['recording']}.",
         "# In a scenario: [[vehicles.sonars]] preset = <sonar.preset>, overrides = <sonar.overrides>",
@@ -132,7 +195,8 @@ def preset_toml(args, values, result, meta) -> str:
             "[statistical_model]",
         ]
     else:
-        lines += ["[sonar]", f"preset = {_toml_value(args.preset)}", "", "[sonar.overrides]"]
+        lines += ["[sonar]", f"preset = {_toml_value(name)}", "", "[sonar.overrides]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in kept.items() if k not in values]
     lines += [f"{k} = {_toml_value(float(v))}" for k, v in values.items()]
     lines += ["", "[calibration]"]
     lines += [f"{k} = {_toml_value(v)}" for k, v in meta.items()]
@@ -141,6 +205,19 @@ def preset_toml(args, values, result, meta) -> str:
             lines += ["", f"[calibration.{when}.{side}]"]
             lines += [f"{k} = {_toml_value(v)}" for k, v in s.scalars().items()]
     return "\n".join(lines) + "\n"
+
+
+def _held_out(args, simulate, values, rep_rec, report, model_cfg):
+    """(altitude m, comparison) of the calibrated preset with the report pings: the
+    ray-cast survey flown again at the report pings' own altitude with the fitted values
+    (the gain as written, not solved again); the statistical model's image as fitted."""
+    survey = getattr(simulate, "survey", simulate)
+    spec = getattr(survey, "spec", None)
+    if spec is None:
+        return float("nan"), compare(waterfall_statistics(simulate(values), model_cfg), report)
+    altitude, _ = survey_geometry(rep_rec, args.altitude, args.max_range)
+    again = type(survey)(replace(spec, altitude_m=altitude))
+    return altitude, compare(waterfall_statistics(again(values), model_cfg), report)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -161,14 +238,20 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise ValueError(f"REAL {args.real}: {exc}") from exc
         altitude, max_range = survey_geometry(fit_rec, args.altitude, args.max_range)
-        simulate, params, model_cfg = _model(args, altitude, max_range, rec.intensity.shape[1] // 2)
+        simulate, params, model_cfg = _model(
+            args, altitude, max_range, rec.intensity.shape[1] // 2, target
+        )
         result = calibrate(
             simulate,
             target,
             params,
             max_evaluations=args.max_evaluations,
+            good_enough=args.good_enough,
             model_config=model_cfg,
         )
+        if hasattr(simulate, "gain_for"):  # the solved gain belongs to the preset too
+            gain = simulate.gain_for(result.values)
+            result = replace(result, values={**result.values, "receiver_gain_db": gain})
     except (ValueError, CalibrationError) as exc:
         best = getattr(exc, "best", None)
         if best is not None:  # show where the fit got to, on stderr
@@ -186,16 +269,19 @@ def run(args: argparse.Namespace) -> int:
         "max_range_m": max_range,
         "samples_per_side": rec.intensity.shape[1] // 2,
         "sim_pings": args.sim_pings,
+        "sim_legs": args.sim_legs,
         "seed": args.seed,
         "evaluations": result.evaluations,
         "loss_before": result.initial_loss,
         "loss_after": result.loss,
     }
-    atomic_write(out, preset_toml(args, result.values, result, meta).encode())
+    base = getattr(simulate, "base", None)
+    base = (base, simulate.base_overrides) if base else None
+    atomic_write(out, preset_toml(args, result.values, result, meta, base).encode())
     if args.save_sim:
         np.save(args.save_sim, np.asarray(simulate(result.values), dtype=np.float32))
     before, after = compare(result.before, target), compare(result.after, target)
-    held_out = compare(result.after, report)
+    rep_alt, held_out = _held_out(args, simulate, result.values, rep_rec, report, model_cfg)
     if args.json:
         doc = {
             "values": result.values,
@@ -216,7 +302,11 @@ def run(args: argparse.Namespace) -> int:
     for title, c in (
         ("BEFORE (preset values) vs REAL fit pings", before),
         ("AFTER (calibrated) vs REAL fit pings", after),
-        (f"AFTER vs REAL report pings {rep_sl.start}:{rep_sl.stop}", held_out),
+        (
+            f"AFTER vs REAL report pings {rep_sl.start}:{rep_sl.stop} (simulated at their "
+            f"altitude, {rep_alt:.2f} m)",
+            held_out,
+        ),
     ):
         print(f"\n== {title}\n" + format_table(c))
     print(f"\nwrote {out}")

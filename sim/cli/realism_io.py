@@ -2,10 +2,12 @@
 
 Everything :func:`slam.realism.recordings.load_recording` reads, plus the project's own
 run output: a ``recording.rrd`` (or a run directory holding one). Its side-scan windows
-are display images (``sim.viz.rerun_log.to_display_uint8``: 8 bits over ``DISPLAY_DB``
-below each window's 99.5th percentile), so they are decoded back to intensity relative to
-that level, window by window (grey 0, at or below the floor, decodes to 0): the statistics inside seabed patches survive, the water
-column and the dynamic range are limited by the 40-dB display floor.
+are the front end's conditioned windows (normalized seabed = 0 dB, water column set to the
+seabed level, 3 × 3 looks) shown by one fixed display mapping for the run
+(``sim.viz.rerun_log.db_to_uint8`` over ``PREPARED_DB``), decoded back to intensity re
+the normalized seabed level (8 bits over 30 dB: 0.12-dB steps). The looks lower the
+speckle CV and raise the lag-1 correlations against the sonar's raw samples; the water
+column and dynamic range are those of the conditioned image, not of the sonar.
 """
 
 from __future__ import annotations
@@ -17,11 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from slam.frontend.sidescan_prepare import PREPARED_DB
 from slam.realism.recordings import Recording, load_recording
 from slam.realism.statistics import first_return_from_altitude
-
-#: dB span of the display mapping of sim.viz.rerun_log.to_display_uint8 (its default).
-DISPLAY_DB = 40.0
 
 
 def _image_windows(path: Path) -> dict[str, list[np.ndarray]]:
@@ -51,7 +51,7 @@ def _image_windows(path: Path) -> dict[str, list[np.ndarray]]:
 
 def load_rrd_waterfall(path: str | Path, entity: str | None = None) -> Recording:
     """The side-scan waterfall windows of a run's recording, stacked in time order and
-    decoded from the display mapping (intensity re each window's display top)."""
+    decoded from the fixed display mapping (intensity re the normalized seabed level)."""
     path = Path(path)
     if path.is_dir():
         path = path / "recording.rrd"
@@ -66,8 +66,8 @@ def load_rrd_waterfall(path: str | Path, entity: str | None = None) -> Recording
     name = sorted(sss, key=lambda k: -sum(w.shape[0] for w in sss[k]))[0]
     width = sss[name][0].shape[1]
     stack = np.concatenate([w for w in sss[name] if w.shape[1] == width], axis=0)
-    db = DISPLAY_DB * (stack.astype(np.float64) / 255.0 - 1.0)
-    intensity = np.where(stack > 0, 10.0 ** (db / 10.0), 0.0)  # 0 = at or below the floor
+    lo, hi = PREPARED_DB
+    intensity = 10.0 ** ((lo + (hi - lo) * stack.astype(np.float64) / 255.0) / 10.0)
     return Recording(intensity, f"{path}:{name}", "rrd")
 
 

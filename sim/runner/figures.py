@@ -141,6 +141,45 @@ def sss_sample_world_xy(poses: np.ndarray, ground_range: np.ndarray) -> np.ndarr
     return np.stack([x - lat * np.sin(yaw), y + lat * np.cos(yaw)], axis=-1)
 
 
+def sss_footprints(
+    poses: np.ndarray,
+    ground_range: np.ndarray,
+    intensity: np.ndarray,
+    cell: float,
+    max_step_m: float = 5.0,
+    max_sub: int = 16,
+) -> tuple[np.ndarray, np.ndarray]:
+    """World xy (N, 2) and values (N,) of every sample spread over the strip it covers up
+    to the next ping: K lines between consecutive pings (pose interpolated, yaw the short
+    way round, each sample keeping its ping's value), K so that the lines are at most
+    ``cell``/2 apart at the far end. In a turn the far samples of consecutive pings are
+    metres apart: without this the mosaic shows them as radial spokes. Pairs farther
+    apart than ``max_step_m`` at nadir (a gap in the record) are not filled.
+
+    poses (P, 3) [x, y, yaw]; ground_range (P, S); intensity (P, 2S) port far first."""
+    xy = sss_sample_world_xy(poses, ground_range)
+    if len(poses) < 2:
+        return xy.reshape(-1, 2), intensity.reshape(-1)
+    gap = np.linalg.norm(np.diff(xy, axis=0), axis=2).max(axis=1)  # (P-1,) far-end spacing
+    near = np.linalg.norm(np.diff(poses[:, :2], axis=0), axis=1)
+    k = int(
+        np.clip(
+            np.ceil(np.nanmax(np.where(near <= max_step_m, gap, 0.0)) / (0.5 * cell)), 1, max_sub
+        )
+    )
+    pts, vals = [xy.reshape(-1, 2)], [intensity.reshape(-1)]
+    dyaw = (np.diff(poses[:, 2]) + np.pi) % (2 * np.pi) - np.pi
+    ok = near <= max_step_m
+    for f in np.arange(1, k) / k:  # k − 1 sub-lines, each vectorised over all pings
+        p = poses[:-1][ok].copy()
+        p[:, :2] += f * np.diff(poses[:, :2], axis=0)[ok]
+        p[:, 2] += f * dyaw[ok]
+        g = ground_range[:-1][ok] + f * np.diff(ground_range, axis=0)[ok]
+        pts.append(sss_sample_world_xy(p, g).reshape(-1, 2))
+        vals.append(intensity[:-1][ok].reshape(-1))
+    return np.concatenate(pts), np.concatenate(vals)
+
+
 def plot_sss_mosaic(
     path: str | Path,
     mosaics: Mapping[str, tuple[np.ndarray, tuple[float, float, float, float]]],
@@ -214,9 +253,9 @@ def write_figures(run, out) -> None:
                 poses = np.array([p[0] for p in s.sss_pings])
                 g = np.array([p[1] for p in s.sss_pings])
                 inten = np.array([p[2] for p in s.sss_pings])
-                xy = sss_sample_world_xy(poses, g)
+                xy, vals = sss_footprints(poses, g, inten, 0.5)
                 key = f"{v.spec.name}/{s.spec.name}"
-                mos[key] = (mosaic_grid(xy.reshape(-1, 2), inten.reshape(-1), ext, 0.5), ext)
+                mos[key] = (mosaic_grid(xy, vals, ext, 0.5), ext)
                 dets_by[key] = np.array(
                     [d.world_xy_true_pose for sn, d in dets if sn == s.spec.name]
                 ).reshape(-1, 2)

@@ -14,6 +14,7 @@ import numpy as np
 from sim.runner.schedule import RunObserver
 from sim.viz import rerun_log as L
 from sim.viz.meshes import box_mesh, vehicle_body_mesh
+from slam.frontend.sidescan_prepare import PREPARED_DB
 
 
 class RerunObserver(RunObserver):
@@ -47,7 +48,8 @@ class RerunObserver(RunObserver):
                 L.log_vehicle_mesh(rec, v.spec.name, mesh[0], mesh[1], vertex_colors=mesh[2])
 
     def on_frame(self, run, v, s, out) -> None:
-        """Sonar images (side-scan windows every ``log_sonar_every`` pings, FLS frames
+        """Sonar images (side-scan windows every ``log_sonar_every`` pings, in dB by one
+        fixed mapping; FLS frames
         every 5x that, every MSIS scan) and side-scan detections."""
         every = run.scn.outputs.log_sonar_every
         rec = self.rec
@@ -56,7 +58,11 @@ class RerunObserver(RunObserver):
                 return
             res = out.window
             L.set_time(rec, run.world.time)
-            L.log_sonar_image(rec, v.spec.name, s.spec.name, res.image, res.overlay)
+            # the front end's window (dB re the normalized seabed, PREPARED_DB): one
+            # display mapping for the whole run, so no brightness step between windows
+            L.log_sonar_image(
+                rec, v.spec.name, s.spec.name, res.image, res.overlay, db_span=PREPARED_DB
+            )
             if res.detections:
                 xy = np.array([d.world_xy_true_pose for d in res.detections])
                 z = run.world.seabed_height(xy.reshape(-1, 2))

@@ -27,6 +27,7 @@ from sim.scenario.seabed_check import check_scenario_seabed
 from sim.sonar.config import PRESETS as _SONAR_PRESET_CONFIGS
 from sim.sonar.config import SSSConfig
 from sim.sonar.config import preset as sonar_preset
+from sim.sonar.preset_file import calibrated_presets, is_preset_file, load_preset_file
 from sim.world.objects import OBJECT_KINDS
 from sim.world.seabed import SEABED_KINDS
 from sim.world.vehicles import VEHICLE_KINDS
@@ -117,9 +118,13 @@ class MissionSpec:
 
 @dataclass(frozen=True)
 class SonarSpec:
+    """preset: built-in preset name; overrides over it; source: the preset file the
+    scenario named (a calibrated preset, whose overrides come first), "" for a built-in."""
+
     preset: str
     name: str
     overrides: Mapping[str, Any] = field(default_factory=dict)
+    source: str = ""
 
     @property
     def is_sidescan(self) -> bool:
@@ -528,15 +533,25 @@ def _check_estimator_params(name: str, params: Mapping[str, Any], path: str) -> 
 def _parse_sonar(d, path) -> SonarSpec:
     d = _table(d, path)
     _check_keys(d, path, ("preset", "name", "overrides"))
+    allowed = ", ".join((*SONAR_PRESETS, *calibrated_presets())) + " or a preset .toml path"
     if "preset" not in d:
-        raise _fail(f"{path}.preset", None, ", ".join(SONAR_PRESETS))
-    preset = _str(d["preset"], f"{path}.preset", SONAR_PRESETS)
+        raise _fail(f"{path}.preset", None, allowed)
+    preset = _str(d["preset"], f"{path}.preset")
+    base, source = {}, ""
+    if preset not in SONAR_PRESETS:
+        if not is_preset_file(preset):
+            raise _fail(f"{path}.preset", preset, allowed)
+        try:
+            pf = load_preset_file(preset)
+        except ValueError as exc:
+            raise ScenarioError(f"scenario field '{path}.preset': {exc}") from exc
+        preset, base, source = pf.base, pf.overrides, pf.source
     name = _str(d.get("name", "sss" if preset in SIDESCAN_PRESETS else preset), f"{path}.name")
     if not name.isidentifier():
         raise _fail(f"{path}.name", name, "an identifier (letters, digits, underscore)")
-    overrides = _scalar_overrides(d.get("overrides", {}), f"{path}.overrides")
+    overrides = {**base, **_scalar_overrides(d.get("overrides", {}), f"{path}.overrides")}
     _check_sonar_overrides(preset, overrides, f"{path}.overrides")
-    return SonarSpec(preset=preset, name=name, overrides=overrides)
+    return SonarSpec(preset=preset, name=name, overrides=overrides, source=source)
 
 
 def _check_sonar_overrides(preset: str, overrides: dict, path: str) -> None:

@@ -85,8 +85,9 @@ def _hash_uniform(ix: np.ndarray, iy: np.ndarray, seed: int) -> np.ndarray:
 
 
 @lru_cache(maxsize=4)
-def _fields(seed: int, fractions: tuple, patch_px: float, tex_px: float, tex_db: float):
-    """(K, N, N) soft sediment weights and (N, N) texture in dB, both periodic."""
+def _fields(seed: int, fractions: tuple, patch_px: float, tex_px: float):
+    """(N, N, K + 1): K soft sediment weights and a unit-rms texture, both periodic (the
+    texture is scaled to dB by the caller, so changing ``texture_db`` rebuilds nothing)."""
     rng = np.random.default_rng(seed)
     shape = (FIELD_SIZE, FIELD_SIZE)
     score = []
@@ -109,7 +110,7 @@ def _fields(seed: int, fractions: tuple, patch_px: float, tex_px: float, tex_db:
     w = np.exp(s)
     w /= w.sum(axis=0, keepdims=True)
     t = gaussian_filter(rng.standard_normal(shape), tex_px, mode="wrap")
-    t *= tex_db / max(float(t.std()), 1e-12)
+    t /= max(float(t.std()), 1e-12)
     return np.ascontiguousarray(np.concatenate([w, t[None]]).transpose(1, 2, 0), np.float32)
 
 
@@ -148,13 +149,13 @@ class SedimentField:
         self.cfg = cfg
         self.mu = float(mu)
         self.laws = [SEDIMENTS[n] for n in SEDIMENT_NAMES]
-        self.grids = _fields(
+        grids = _fields(
             cfg.sediment_seed,
             cfg.fractions,
             cfg.patch_scale_m / FIELD_CELL_M,
             cfg.texture_scale_m / FIELD_CELL_M,
-            cfg.texture_db,
         )
+        self.grids = grids * np.array([1.0, 1.0, 1.0, 1.0, cfg.texture_db], np.float32)
         a = np.deg2rad(cfg.ripple_direction_deg)
         self.ripple_dir = np.array([np.cos(a), np.sin(a), 0.0])
         self.gain = 10.0 ** (cfg.sediment_gain_db / 10.0)

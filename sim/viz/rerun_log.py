@@ -277,6 +277,14 @@ def to_display_uint8(image: np.ndarray, db_range: float = 40.0) -> np.ndarray:
     return np.clip(255.0 * (1.0 + db / db_range), 0, 255).astype(np.uint8)
 
 
+def db_to_uint8(image_db: np.ndarray, db_span: tuple[float, float]) -> np.ndarray:
+    """dB image -> uint8 by one fixed linear mapping of ``db_span`` = (lo, hi) dB onto
+    0..255 (clipped): the same grey means the same level in every window of a run."""
+    lo, hi = db_span
+    a = np.where(np.isfinite(image_db), np.asarray(image_db, np.float64), lo)
+    return np.clip(np.round(255.0 * (a - lo) / (hi - lo)), 0, 255).astype(np.uint8)
+
+
 def log_sonar_image(
     rec: rr.RecordingStream,
     vehicle: str,
@@ -285,11 +293,19 @@ def log_sonar_image(
     segmentation: np.ndarray | None = None,
     *,
     already_display: bool = False,
+    db_span: tuple[float, float] | None = None,
 ) -> None:
     """A sonar image (waterfall (pings, 2 x samples) or FLS (bins, beams)) with an optional
-    segmentation overlay of class ids (same shape; 0 = background)."""
+    segmentation overlay of class ids (same shape; 0 = background). ``db_span``: the
+    image is in dB and is displayed by that fixed mapping (:func:`db_to_uint8`) instead of
+    the per-image one of :func:`to_display_uint8`."""
     img = np.asarray(image)
-    disp = img.astype(np.uint8) if already_display else to_display_uint8(img)
+    if already_display:
+        disp = img.astype(np.uint8)
+    elif db_span is not None:
+        disp = db_to_uint8(img, db_span)
+    else:
+        disp = to_display_uint8(img)
     base = f"world/{vehicle}/sonar/{sonar}"
     rec.log(f"{base}/image", rr.Image(disp))
     if segmentation is not None:

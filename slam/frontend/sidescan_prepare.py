@@ -36,6 +36,11 @@ def no_return_mask(img: np.ndarray) -> np.ndarray:
     return out
 
 
+#: dB span of a prepared side-scan window (re the normalized seabed level): fixed, so a
+#: display of the windows can use one mapping for a whole run
+PREPARED_DB = (-10.0, 20.0)
+
+
 def make_sss_prepare(
     log_compressed: bool, dynamic_range_db: float, looks: int = 3, normalization: str = "mira"
 ):
@@ -78,7 +83,8 @@ def make_sss_prepare(
         if looks > 1:
             m = cv2.blur(m, (looks, looks))
         assert m.shape[1] == 2 * S
-        return (10.0 * np.log10(np.clip(m, 0.1, 100.0))).astype(np.float32)
+        lo, hi = (10.0 ** (v / 10.0) for v in PREPARED_DB)
+        return (10.0 * np.log10(np.clip(m, lo, hi))).astype(np.float32)
 
     return prepare
 
@@ -108,6 +114,7 @@ def make_fls_prepare(
         m = np.where(valid, lin / np.maximum(bg, 1e-30), 1.0).astype(np.float32)
         if looks > 1:
             m = cv2.blur(m, (looks, looks))
-        return (10.0 * np.log10(np.clip(m, 0.1, 100.0))).astype(np.float32)
+        lo, hi = (10.0 ** (v / 10.0) for v in PREPARED_DB)
+        return (10.0 * np.log10(np.clip(m, lo, hi))).astype(np.float32)
 
     return prepare

@@ -55,6 +55,11 @@ RESIDUAL_KEYS = tuple(f"{k}.{s}" for k in CONVERGENCE_FEATURES for s in SIDES) +
 )
 
 
+class _Budget(Exception):
+    """Raised inside the objective to end the search: the model-run budget is spent, or a
+    point is well inside every tolerance (``good_enough``)."""
+
+
 class CalibrationError(ValueError):
     """The fit did not converge (the message says which statistics are off and why);
     ``best`` holds the best result found (None when the model gave no image)."""
@@ -169,6 +174,7 @@ def calibrate(
     *,
     max_evaluations: int = 200,
     max_residual: float = 1.0,
+    good_enough: float | None = None,
     diff_step: float = 0.03,
     model_config: RealismConfig | None = None,
 ) -> CalibrationResult:
@@ -179,7 +185,10 @@ def calibrate(
     even where the model does not clip.
 
     Converged means every feature within ``max_residual`` tolerances (issue 11: every row
-    of the table within its tolerance). Raises CalibrationError when the model fails at
+    of the table within its tolerance). ``max_evaluations`` bounds the model runs in all
+    (finite differences included); the search stops early at the first point with every
+    feature within ``good_enough`` tolerances (None: search to the end); the result is the
+    best point seen (least loss). Raises CalibrationError when the model fails at
     the start values or the fit does not converge (naming the statistics that are off).
     """
     model_config = model_config or RealismConfig()
@@ -197,6 +206,8 @@ def calibrate(
     def evaluate(u: np.ndarray):
         key = tuple(np.round(np.clip(u, 0, 1), 12))
         if key not in cache:
+            if len(cache) >= max_evaluations:
+                raise _Budget
             try:
                 st = waterfall_statistics(simulate(values_of(np.asarray(key))), model_config)
             except ValueError:
@@ -204,43 +215,63 @@ def calibrate(
             else:
                 res = residuals(st, target)
                 cache[key] = (residual_vector(res), st, res)
+            if good_enough is not None and cache[key][1] is not None:
+                if _worst(cache[key][0]) <= good_enough:
+                    raise _Budget
         return cache[key]
 
+    def best_seen() -> np.ndarray:
+        k = min(cache, key=lambda k: float(np.mean(cache[k][0] ** 2)))
+        return np.asarray(k, dtype=np.float64)
+
     u0 = np.array([p.to_unit(p.initial) for p in parameters])
-    r0, st0, _ = evaluate(u0)
+    try:
+        evaluate(u0)
+    except _Budget:  # the start is good enough already (or a budget of one run)
+        pass
+    r0, st0, _ = evaluate(u0)  # from the cache
     if st0 is None:
         raise CalibrationError(
             f"the model gives no usable image at the start values {values_of(u0)} "
             "(no seabed or too short): check the preset, altitude and range"
         )
-    opt = least_squares(
-        lambda u: evaluate(u)[0],
-        u0,
-        bounds=(0.0, 1.0),
-        diff_step=diff_step,
-        max_nfev=max_evaluations,
-        xtol=1e-3,
-        ftol=1e-4,
-    )
-    u = opt.x
+    done = good_enough is not None and _worst(r0) <= good_enough
+    try:
+        if done:
+            raise _Budget
+        opt = least_squares(
+            lambda u: evaluate(u)[0],
+            u0,
+            bounds=(0.0, 1.0),
+            diff_step=diff_step,
+            max_nfev=max_evaluations,
+            xtol=1e-3,
+            ftol=1e-4,
+        )
+        u = min((opt.x, best_seen()), key=lambda x: float(np.mean(evaluate(x)[0] ** 2)))
+    except _Budget:
+        u = best_seen()
     left = max_evaluations - len(cache)
-    if _worst(evaluate(u)[0]) > max_residual and left > len(u) + 1:
+    if not done and _worst(evaluate(u)[0]) > max_residual and left > len(u) + 1:
         # least squares stalls where a feature is flat (no clipping at all): polish by
         # Nelder–Mead from the better of the start and the least-squares point
         start = min((u0, u), key=lambda x: float(np.mean(evaluate(x)[0] ** 2)))
-        nm = minimize(
-            lambda x: float(np.mean(evaluate(x)[0] ** 2)),
-            start,
-            method="Nelder-Mead",
-            bounds=[(0.0, 1.0)] * len(u),
-            options={
-                "maxfev": left,
-                "xatol": 2e-3,
-                "fatol": 1e-3,
-                "initial_simplex": _simplex(start),
-            },
-        )
-        u = min((u, nm.x), key=lambda x: float(np.mean(evaluate(x)[0] ** 2)))
+        try:
+            minimize(
+                lambda x: float(np.mean(evaluate(x)[0] ** 2)),
+                start,
+                method="Nelder-Mead",
+                bounds=[(0.0, 1.0)] * len(u),
+                options={
+                    "maxfev": left,
+                    "xatol": 2e-3,
+                    "fatol": 1e-3,
+                    "initial_simplex": _simplex(start),
+                },
+            )
+        except _Budget:
+            pass
+        u = best_seen()
     rv, st, res = evaluate(u)
     result = None
     if st is not None:

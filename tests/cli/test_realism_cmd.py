@@ -9,7 +9,7 @@ import pytest
 
 import sim.viz.rerun_log as L
 from sim.cli.main import main
-from sim.cli.realism_io import DISPLAY_DB, load_rrd_waterfall, parse_pings
+from sim.cli.realism_io import PREPARED_DB, load_rrd_waterfall, parse_pings
 
 
 def _waterfall(rng, seabed, wc_samples=64, p=96, s=256):
@@ -96,21 +96,21 @@ def test_parse_pings_halves():
     assert parse_pings(":100", 461) == slice(0, 100)
 
 
-def test_rrd_windows_decode_to_the_display_quantized_intensity(tmp_path, rng):
-    """Two waterfall windows logged as display images come back stacked, each equal to its
-    window's intensity re its 99.5th percentile, quantized to DISPLAY_DB/255 dB steps."""
+def test_rrd_windows_decode_by_one_fixed_mapping(tmp_path, rng):
+    """Two windows in dB, 17 dB apart, logged as the runner does (fixed PREPARED_DB span):
+    they come back stacked, each within half a grey step (30/255/2 dB) of its own level
+    clipped to the span: no per-window rescaling (a 17-dB step stays a 17-dB step)."""
     path = tmp_path / "recording.rrd"
     rec = L.open_recording(path)
-    wins = [rng.exponential(1.0, (8, 32)).astype(np.float32) * g for g in (1.0, 50.0)]
+    wins = [rng.normal(m, 3.0, (8, 32)).astype(np.float32) for m in (-2.0, 15.0)]
     for i, w in enumerate(wins):
         L.set_time(rec, float(i))
-        L.log_sonar_image(rec, "auv", "sss", w)
+        L.log_sonar_image(rec, "auv", "sss", w, db_span=PREPARED_DB)
     L.close_recording(rec)
     got = load_rrd_waterfall(tmp_path)  # the run directory
     assert got.intensity.shape == (16, 32) and got.kind == "rrd"
+    step = (PREPARED_DB[1] - PREPARED_DB[0]) / 255
     for i, w in enumerate(wins):
-        ref = 10 * np.log10(np.maximum(w / np.percentile(w, 99.5), 10 ** (-DISPLAY_DB / 10)))
-        dec = got.intensity[8 * i : 8 * (i + 1)]
-        on = dec > 0  # grey 0 (at or below the floor) decodes to 0
-        assert np.abs(np.minimum(ref[on], 0) - 10 * np.log10(dec[on])).max() <= DISPLAY_DB / 255
-        assert (ref[~on] <= -DISPLAY_DB + DISPLAY_DB / 255 + 1e-9).all()
+        dec = 10 * np.log10(got.intensity[8 * i : 8 * (i + 1)])
+        ref = np.clip(w, *PREPARED_DB)
+        assert np.abs(dec - ref).max() <= step / 2 + 1e-6

@@ -98,3 +98,33 @@ def test_run_directory_refuses_a_file_path(tmp_path):
     f.write_text("x")
     with pytest.raises(OutputExistsError, match="is a file"):
         RunDirectory(f)
+
+
+def test_turn_pings_fill_their_footprints_not_spokes():
+    """A vehicle turning on the spot by 3° per kept ping: the starboard swath between the
+    first and last ping is an annular sector (independent expectation: its cells). Plain
+    sample positions leave most far cells empty (spokes 2 m apart at 40 m); footprints fill
+    every cell of the sector and none outside it."""
+    from sim.runner.figures import mosaic_grid, sss_footprints, sss_sample_world_xy
+
+    P, S, cell = 11, 160, 0.5
+    yaw = np.deg2rad(3.0) * np.arange(P)
+    poses = np.column_stack([np.zeros(P), np.zeros(P), yaw])
+    g = np.tile((np.arange(S) + 0.5) * 0.25, (P, 1))  # 0 .. 40 m
+    inten = np.ones((P, 2 * S))
+    ext = (-45.0, 45.0, -45.0, 45.0)
+    xs = ext[0] + (np.arange(180) + 0.5) * cell
+    ys = ext[3] - (np.arange(180) + 0.5) * cell
+    X, Y = np.meshgrid(xs, ys)
+    r = np.hypot(X, Y)
+    # starboard points along -y rotated by yaw: bearing = yaw - 90°
+    ang = (np.arctan2(Y, X) + np.pi / 2) % (2 * np.pi)
+    inner = (r > 5.0) & (r < 39.0) & (ang > 0.02) & (ang < yaw[-1] - 0.02)
+    spokes = mosaic_grid(sss_sample_world_xy(poses, g).reshape(-1, 2), inten.reshape(-1), ext, cell)
+    xy, v = sss_footprints(poses, g, inten, cell)
+    foot = mosaic_grid(xy, v, ext, cell)
+    assert np.isfinite(spokes[inner]).mean() < 0.6
+    assert np.isfinite(foot[inner]).all()
+    m = 0.02 + cell / r  # a cell's angular half-width and a margin
+    outside = ((r > 41.0) | ((ang > yaw[-1] + m) & (ang < np.pi - m))) & (r > 2.0)
+    assert not np.isfinite(foot[outside]).any()

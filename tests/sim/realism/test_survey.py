@@ -39,3 +39,58 @@ def test_bad_spec_is_named(kw, message):
 def test_unknown_preset_fails_early():
     with pytest.raises(ValueError, match="nope"):
         RaycastSurvey(SurveySpec(5.0, 20.0, 128, preset="nope"))
+
+
+def test_legs_are_placed_segment_spacing_apart():
+    """Two legs of 16 pings: the vehicle's x steps by speed / ping rate inside a leg and
+    jumps to the next leg's start 30 m after the previous start; legs must divide pings."""
+    two = RaycastSurvey(SurveySpec(5.0, 20.0, 128, pings=32, segments=2, segment_spacing_m=30.0))
+    xs = []
+    move = two.scene.move_vehicle
+    two.scene.move_vehicle = lambda x, y=None, z=None: (xs.append(x), move(x, y, z))
+    w = two({"receiver_gain_db": -20.0})
+    assert w.shape == (32, 256) and np.all(np.isfinite(w))
+    step = 1.5 / two.config({}).ping_rate_hz
+    assert np.allclose(np.diff(xs[:16]), step) and np.allclose(np.diff(xs[16:]), step)
+    assert xs[16] - xs[0] == pytest.approx(30.0)
+    assert two.spec.extent_m == pytest.approx(30.0 + 16 * 1.5)
+    with pytest.raises(ValueError, match="segments"):
+        SurveySpec(5.0, 20.0, 128, pings=32, segments=3)
+
+
+def test_solved_gain_is_the_simulators_gain_and_clips_the_target_fraction():
+    """GainProfiledSurvey: its image equals the plain survey run with the solved gain (the
+    sonar's own ADC; up to float32 rounding of the gain-free image); the gain is the dB
+    mean of the two sides' own gains, so with one target the brighter side clips at least
+    that fraction and the darker at most (a 32-ping leg's sides differ by ~8 dB here)."""
+    from sim.realism.survey import GainProfiledSurvey
+
+    survey = RaycastSurvey(SPEC)
+    prof = GainProfiledSurvey(survey, (0.02, 0.02))
+    img = prof({"texture_db": 2.0})
+    gain = prof.gain_for({"texture_db": 2.0})
+    ref = survey({"texture_db": 2.0, "receiver_gain_db": gain})
+    fs = survey.full_scale({})
+    assert np.mean(np.isclose(img, ref, rtol=1e-4, atol=1e-9 * fs)) > 0.999
+    clipped = sorted(np.mean(side >= fs * (1 - 1e-9)) for side in (img[:, :128], img[:, 128:]))
+    assert clipped[0] <= 0.02 + 1e-3 and clipped[1] >= 0.02 - 1e-3
+    with pytest.raises(ValueError, match="clips"):
+        GainProfiledSurvey(survey, (0.0, 0.01))
+
+
+def test_display_mode_is_the_quantised_log_display_of_the_linear_output():
+    """display_bits = 8: each sample is L² with L = round(255 · clip((10 log10 I − floor) /
+    range, 0, 1)) of the linear survey's intensity I (same seed, same draws), the way a
+    recreational unit stores its display and the readers square it back."""
+    import dataclasses
+
+    from sim.sonar.acoustics import compress_log
+
+    spec = dataclasses.replace(SPEC, display_bits=8)
+    ov = {"display_floor_db": 120.0, "dynamic_range_db": 60.0}
+    disp = RaycastSurvey(spec)(ov)
+    lin = RaycastSurvey(SPEC)(ov)
+    ref = np.round(255.0 * compress_log(lin, 120.0, 60.0)) ** 2
+    assert np.mean(disp == ref) > 0.999
+    assert RaycastSurvey(spec).full_scale({}) == 255.0**2
+    assert np.array_equal(np.sqrt(disp), np.round(np.sqrt(disp)))

@@ -77,6 +77,22 @@ def test_sediment_patches_cover_the_requested_area_fractions(fractions):
     assert np.allclose(share, cfg.fractions, atol=0.03), share
 
 
+def test_texture_rms_is_texture_db_without_rebuilding_the_fields():
+    """The within-sediment texture has rms ``texture_db`` over one field period (the field
+    nodes: the construction's own definition), and another ``texture_db`` reuses the
+    cached fields (no 1024² rebuild per calibration step)."""
+    from sim.sonar.sediment import FIELD_CELL_M, FIELD_SIZE, _fields
+
+    g = np.stack(np.meshgrid(*(2 * [np.arange(FIELD_SIZE) * FIELD_CELL_M])), -1).reshape(-1, 2)
+    f1 = SedimentField(RealismConfig(texture_db=1.0), MU)
+    misses = _fields.cache_info().misses
+    f3 = SedimentField(RealismConfig(texture_db=3.0), MU)
+    assert _fields.cache_info().misses == misses
+    for f, rms in ((f1, 1.0), (f3, 3.0)):
+        _, tex = f.lookup(g)
+        assert np.sqrt(np.mean(tex**2)) == pytest.approx(rms, rel=1e-3)
+
+
 def test_k_clutter_texture_recovers_the_sediment_gamma_shape():
     """The world-fixed clutter texture is Γ(ν, 1/ν): mean 1, variance 1/ν (method-of-moments
     K shape recovery) and a KS fit to the gamma law, for gravel (ν = 5)."""

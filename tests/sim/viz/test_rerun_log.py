@@ -108,3 +108,14 @@ def test_bad_trajectory_kind_rejected():
     rec = L.open_recording(None)
     with pytest.raises(ValueError, match="'true' or 'estimated'"):
         L.log_trajectory(rec, "v", "guess", np.zeros((2, 3)))
+
+
+def test_fixed_db_mapping_is_the_same_for_every_window(rng):
+    """db_to_uint8 maps lo -> 0, hi -> 255 and is affine in between, whatever else is in
+    the image (a per-image stretch would move the grey of 0 dB with the window's content)."""
+    span = (-10.0, 20.0)
+    a = np.array([[-10.0, 20.0, 5.0, -40.0, 99.0, np.nan]])
+    assert L.db_to_uint8(a, span).tolist() == [[0, 255, 128, 0, 255, 0]]
+    quiet = rng.normal(0.0, 1.0, (8, 8))
+    loud = np.concatenate([quiet, rng.normal(15.0, 1.0, (8, 8))], axis=1)
+    assert np.array_equal(L.db_to_uint8(quiet, span), L.db_to_uint8(loud, span)[:, :8])

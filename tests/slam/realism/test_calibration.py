@@ -73,3 +73,25 @@ def test_parameter_validation_and_unit_mapping():
     assert p.from_unit(p.to_unit(0.37)) == pytest.approx(0.37)
     with pytest.raises(ValueError, match="unique"):
         calibrate(StatisticalSideScan(**SIZE), None, [PARAMETERS[0], PARAMETERS[0]])
+
+
+def test_model_runs_stay_within_the_budget_and_stop_when_good_enough():
+    """The budget counts every model run (finite differences too); a start that already
+    matches (the target is the model's own image there) ends the search after one run."""
+    calls = []
+    model = StatisticalSideScan(seed=0, **SIZE)
+
+    def counted(values):
+        calls.append(dict(values))
+        return model(values)
+
+    other = dict(gain_db=-9.0, texture_db=2.5, corr_range=0.55, corr_ping=0.5, looks=2.5)
+    far = waterfall_statistics(StatisticalSideScan(seed=1, **SIZE)(other))
+    with pytest.raises(CalibrationError):  # 7 runs cannot fit six parameters from afar
+        calibrate(counted, far, PARAMETERS, max_evaluations=7, model_config=MODEL_STATS)
+    assert len(calls) <= 7
+    calls.clear()
+    start = {p.name: p.initial for p in PARAMETERS}
+    own = waterfall_statistics(model(start), MODEL_STATS)
+    r = calibrate(counted, own, PARAMETERS, good_enough=0.8, model_config=MODEL_STATS)
+    assert len(calls) == 1 and r.evaluations == 1 and r.values == pytest.approx(start)

@@ -1,0 +1,99 @@
+"""Preset files (calibrated presets): a scenario names one by path or shipped stem and gets
+the base preset with the file's overrides, its own overrides on top; bad files are named."""
+
+from __future__ import annotations
+
+import pytest
+
+from sim.scenario import ScenarioError, load_scenario_dict, parse_scenario
+from sim.sonar.config import preset
+from sim.sonar.preset_file import calibrated_presets, load_preset_file
+
+FILE = """# written by hand in the format of `undersea calibrate`
+[sonar]
+preset = "deepeye680d_realistic"
+
+[sonar.overrides]
+texture_db = 3.25
+receiver_gain_db = -4.5
+volume_sv_db = "off"
+
+[calibration]
+recording = "somewhere.xtf"
+"""
+
+
+def _scenario_with(preset_name: str, overrides: dict | None = None) -> dict:
+    d = load_scenario_dict("shipwreck-survey")
+    d["vehicles"][0]["sonars"][0] = {"preset": preset_name, "overrides": overrides or {}}
+    return d
+
+
+def test_scenario_preset_by_path_applies_file_then_scenario_overrides(tmp_path):
+    p = tmp_path / "my_sonar.toml"
+    p.write_text(FILE)
+    spec = parse_scenario(_scenario_with(str(p), {"max_range": 35.0, "texture_db": 2.0}))
+    sp = spec.vehicles[0].sonars[0]
+    assert sp.preset == "deepeye680d_realistic" and sp.source == str(p) and sp.is_sidescan
+    got = preset(sp.preset, **dict(sp.overrides))
+    rz = got.acoustic.realism
+    # independent expectation: the base preset's own values, replaced field by field
+    assert got.max_range == 35.0
+    assert rz.texture_db == 2.0  # the scenario's override wins over the file's 3.25
+    assert rz.receiver_gain_db == -4.5 and rz.volume_sv_db is None
+    assert rz.range_cell_m == preset("deepeye680d_realistic").acoustic.realism.range_cell_m
+
+
+def test_file_written_by_calibrate_loads(tmp_path):
+    """The writer of `undersea calibrate` and the reader agree on the format."""
+    import argparse
+
+    from sim.cli.calibrate_cmd import preset_toml
+    from slam.realism.calibration import CalibrationResult
+
+    class _St:
+        def sides(self):
+            return {}
+
+    res = CalibrationResult({}, {}, 0.1, 1.0, {}, 3, _St(), _St())
+    args = argparse.Namespace(model="raycast", preset="deepeye680d_realistic")
+    text = preset_toml(args, {"texture_db": 4.0, "range_cell_m": 0.01}, res, {"recording": "r"})
+    p = tmp_path / "cal.toml"
+    p.write_text(text)
+    pf = load_preset_file(p)
+    assert pf.base == "deepeye680d_realistic"
+    assert pf.overrides == {"texture_db": 4.0, "range_cell_m": 0.01}
+    assert pf.config().acoustic.realism.range_cell_m == 0.01
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("[sonar]\npreset = 'deepeye999'\n", "deepeye999"),
+        ("[calibration]\nx = 1\n", "[sonar] preset"),
+        ("[sonar]\npreset = 'deepeye680d'\n[sonar.overrides]\ntexture_db = 99.0\n", "texture_db"),
+        ("[statistical_model]\ngain_db = 1.0\n", "statistical"),
+        ("[sonar\n", "invalid TOML"),
+    ],
+)
+def test_bad_preset_file_named_in_scenario_error(tmp_path, text, message):
+    p = tmp_path / "bad.toml"
+    p.write_text(text)
+    with pytest.raises(ScenarioError) as ei:
+        parse_scenario(_scenario_with(str(p)))
+    assert "vehicles[0].sonars[0].preset" in str(ei.value) and message in str(ei.value)
+
+
+def test_missing_file_and_unknown_name_are_named(tmp_path):
+    with pytest.raises(ScenarioError, match="does not exist"):
+        parse_scenario(_scenario_with(str(tmp_path / "nope.toml")))
+    with pytest.raises(ScenarioError, match="deepeye680d"):
+        parse_scenario(_scenario_with("no_such_preset"))
+
+
+def test_shipped_calibrated_presets_load():
+    shipped = calibrated_presets()
+    for name in shipped:
+        pf = load_preset_file(name)
+        assert pf.base in ("deepeye680d_realistic", "deepeye680d")
+        assert pf.config().acoustic.realism is not None
