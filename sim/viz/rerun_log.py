@@ -335,10 +335,16 @@ def default_blueprint(vehicles: Mapping[str, Sequence[str]]) -> rrb.Blueprint:
     ]
     plots = [rrb.TimeSeriesView(origin=f"metrics/{v}", name=f"{v} metrics") for v in vehicles]
     right = rrb.Vertical(*(sonar_views or [rrb.TextDocumentView(origin="notes")]), *plots)
+    # the sonar images live under their vehicle but are 2-D pixels with no camera model:
+    # a 3-D view cannot place them (the web viewer shows an error badge), so the world
+    # view leaves them to their own 2-D views
+    world = rrb.Spatial3DView(
+        origin="world",
+        name="world",
+        contents=["+ $origin/**", *(f"- /world/{v}/sonar/**" for v in vehicles)],
+    )
     return rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name="world"), right, column_shares=[3, 2]
-        ),
+        rrb.Horizontal(world, right, column_shares=[3, 2]),
         collapse_panels=True,
     )
 
