@@ -333,6 +333,17 @@ class MSISConfig(_RangeBins):
         return max(1, round(self.sector_deg / self.step_deg))
 
 
+_DEEPEYE680D = SSSConfig(
+    frequency_hz=680e3,
+    max_range=50.0,
+    samples_per_side=1000,
+    range_resolution=0.01,
+    along_track_beamwidth_deg=0.2,
+    vertical_beamwidth_deg=50.0,
+    depression_deg=20.0,
+    ping_rate_hz=14.0,
+)
+
 PRESETS: dict[str, Any] = {
     "deepeye340d": SSSConfig(
         frequency_hz=340e3,
@@ -344,16 +355,7 @@ PRESETS: dict[str, Any] = {
         depression_deg=20.0,
         ping_rate_hz=9.0,
     ),
-    "deepeye680d": SSSConfig(
-        frequency_hz=680e3,
-        max_range=50.0,
-        samples_per_side=1000,
-        range_resolution=0.01,
-        along_track_beamwidth_deg=0.2,
-        vertical_beamwidth_deg=50.0,
-        depression_deg=20.0,
-        ping_rate_hz=14.0,
-    ),
+    "deepeye680d": _DEEPEYE680D,
     "klein3500": SSSConfig(
         frequency_hz=400e3,
         max_range=75.0,
@@ -366,15 +368,8 @@ PRESETS: dict[str, Any] = {
     ),
     # DeepEye 680D with every realism effect on; the calibration (docs/sonar_realism.md)
     # fits the RealismConfig levels to a real recording
-    "deepeye680d_realistic": SSSConfig(
-        frequency_hz=680e3,
-        max_range=50.0,
-        samples_per_side=1000,
-        range_resolution=0.01,
-        along_track_beamwidth_deg=0.2,
-        vertical_beamwidth_deg=50.0,
-        depression_deg=20.0,
-        ping_rate_hz=14.0,
+    "deepeye680d_realistic": dataclasses.replace(
+        _DEEPEYE680D,
         acoustic=AcousticConfig(
             realism=RealismConfig(range_cell_m=0.02, full_scale_db=158.5, volume_sv_db=-68.0)
         ),
