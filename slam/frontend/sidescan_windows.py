@@ -276,7 +276,9 @@ class SidescanProcessor:
             if edge is not None and a <= k < last:
                 if edge[k - a, min(round(col), img.shape[1] - 1)]:
                     continue  # centred on the first-return edge / water column
-            if self._too_long(obj, span, rate):  # a seabed band assembled across windows
+            first = self.pings[min(obj.bbox[0], len(self.pings) - 1)]
+            # parts may each pass the per-region test of _candidates: check the assembly
+            if self._too_long(span, obj.ground, first.speed, rate):
                 continue
             keep.append((obj, row, col))
         mirrored = self._mirrored([(row, col) for _, row, col in keep], S)
@@ -361,14 +363,11 @@ class SidescanProcessor:
             wxy,
         )
 
-    def _too_long(self, obj: Part, span: int, rate: float) -> bool:
-        """True when the object is longer than ``max_extent_m`` along track or across
-        (its parts may each pass the per-region test in _candidates)."""
-        if not np.isfinite(self.max_extent_m):
-            return False
-        p = self.pings[min(obj.bbox[0], len(self.pings) - 1)]
-        along = span * max(p.speed, 0.05) / rate
-        return max(along, obj.ground[1] - obj.ground[0]) > self.max_extent_m
+    def _too_long(self, rows: int, ground: tuple[float, float], speed: float, rate: float) -> bool:
+        """True when a footprint of ``rows`` pings (at ``speed`` m/s, ``rate`` Hz) by
+        ``ground`` (near, far) m is longer than ``max_extent_m`` along track or across: a
+        seabed band or patch, no repeatable point for a point landmark."""
+        return max(rows * max(speed, 0.05) / rate, ground[1] - ground[0]) > self.max_extent_m
 
     def _mirrored(self, centres: list[tuple[float, float]], S: int) -> np.ndarray:
         """(n,) bool: groups mirrored across nadir (artefacts.mirrored_across_nadir)."""
@@ -425,8 +424,7 @@ class SidescanProcessor:
             s1 = (S - 1 - c0) if port else (c1 - 1 - S)
             sl = pk.slant_range[np.clip([s0, s1], 0, S - 1)]
             gi = np.sqrt(np.clip(sl**2 - pk.altitude**2, 0.0, None))
-            along = (r1 - r0) * max(pk.speed, 0.05) / rate
-            if max(along, gi[1] - gi[0]) > self.max_extent_m:  # no repeatable point
+            if self._too_long(r1 - r0, (gi[0], gi[1]), pk.speed, rate):
                 self._long.append((bool(port), (a + r0, c0, a + r1, c1)))
                 continue
             rows_l, cols = np.divmod(idx, W2)
