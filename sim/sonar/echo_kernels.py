@@ -197,3 +197,195 @@ def share_energy(kw, weight, e, src):
             out[p + j] = e[src[p + j]] * (weight[p + j] / s)
         p += kw[i]
     return out
+
+
+@numba.njit(cache=True)
+def ray_terms(geom, dist, normal, dirs, d_dirs, geom_object_id, geom_reflectivity):
+    """Per ray: hit (geom ≥ 0), geom (0 for a miss), range r m (0 for a miss),
+    |n·d| = cos θ, |n·∂d|, reflectivity of the geom and label (object id, −2 for a hit on
+    an unlabelled geom, −1 for a miss) as int32."""
+    n = geom.size
+    hit = np.empty(n, np.bool_)
+    g = np.empty(n, np.int64)
+    r = np.empty(n)
+    cos_i = np.empty(n)
+    ndd = np.empty(n)
+    refl = np.empty(n)
+    lab = np.empty(n, np.int32)
+    for i in range(n):
+        h = geom[i] >= 0
+        hit[i] = h
+        gi = geom[i] if h else 0
+        g[i] = gi
+        r[i] = dist[i] if h else 0.0
+        cos_i[i] = abs(
+            normal[i, 0] * dirs[i, 0] + normal[i, 1] * dirs[i, 1] + normal[i, 2] * dirs[i, 2]
+        )
+        ndd[i] = abs(
+            normal[i, 0] * d_dirs[i, 0] + normal[i, 1] * d_dirs[i, 1] + normal[i, 2] * d_dirs[i, 2]
+        )
+        refl[i] = geom_reflectivity[gi]
+        lb = np.int32(geom_object_id[gi]) if h else np.int32(-1)
+        lab[i] = np.int32(-2) if (h and lb < 0) else lb
+    return hit, g, r, cos_i, ndd, refl, lab
+
+
+@numba.njit(cache=True)
+def footprints(
+    gain, refl, soc, att, r, hit, ndd, cos_i, lab, d_dirs, neighbours, r_min, bin_width,
+    n_bins, footprint_scale, min_ext, max_ext, max_fraction,
+):  # fmt: skip
+    """Energy (gain·refl·σ/cos·att / max(r, 1 mm)², 0 for a miss), footprint centre fc and
+    ends [a, b) in fractional bins (see :func:`sim.sonar.echo.form_echo`), and the links
+    (N − 1,) between consecutive ``neighbours`` rays on the same labelled surface, whose
+    facing footprint ends meet where their shared angular cell edge lands."""
+    n = r.size
+    energy = np.empty(n)
+    fc = np.empty(n)
+    a = np.empty(n)
+    b = np.empty(n)
+    off = n_bins + max_ext + 1.0  # off the end: contributes nothing
+    for i in range(n):
+        rs = max(r[i], 1e-3)
+        e = gain[i] * refl[i] * soc[i]
+        energy[i] = e * (att[i] / (rs * rs)) if hit[i] else 0.0
+        ext = min(r[i] * ndd[i] / max(cos_i[i], 0.02), max_fraction * r[i]) / bin_width
+        ext = min(max(ext * footprint_scale, min_ext), max_ext)
+        f = (r[i] - r_min) / bin_width if hit[i] else off
+        fc[i] = f
+        a[i] = f - 0.5 * ext
+        b[i] = f + 0.5 * ext
+    if neighbours is None:
+        return energy, fc, a, b, np.zeros(0, np.bool_)
+    link = np.empty(n - 1, np.bool_)
+    mid = np.empty(n - 1)
+    w = np.empty(n)
+    for i in range(n):
+        w[i] = np.sqrt(
+            d_dirs[i, 0] * d_dirs[i, 0] + d_dirs[i, 1] * d_dirs[i, 1] + d_dirs[i, 2] * d_dirs[i, 2]
+        )
+    for j in range(n - 1):
+        link[j] = neighbours[j] and hit[j] and hit[j + 1] and lab[j] == lab[j + 1]
+        t = w[j] / max(w[j] + w[j + 1], 1e-300)
+        mid[j] = fc[j] + t * (fc[j + 1] - fc[j])
+    half = 0.5 * min_ext
+    # the four updates in turn over all links (a later one overrides an earlier one)
+    for j in range(n - 1):
+        if link[j] and fc[j + 1] > fc[j]:
+            b[j] = max(mid[j], fc[j] + half)
+    for j in range(n - 1):
+        if link[j] and fc[j + 1] > fc[j]:
+            a[j + 1] = min(mid[j], fc[j + 1] - half)
+    for j in range(n - 1):
+        if link[j] and fc[j + 1] <= fc[j]:
+            a[j] = min(mid[j], fc[j] - half)
+    for j in range(n - 1):
+        if link[j] and fc[j + 1] <= fc[j]:
+            b[j + 1] = max(mid[j], fc[j + 1] + half)
+    return energy, fc, a, b, link
+
+
+@numba.njit(cache=True)
+def split_widths(a, b, e, subbox_bins, max_subboxes):
+    """Sub-box count per footprint (ceil(width / subbox_bins) clipped to [1,
+    max_subboxes]), the indices of the wide (count > 1) footprints and the argument
+    e / max(width, 1e-9) clipped below at 1e-300 of their log box density."""
+    n = a.size
+    k = np.empty(n, np.int64)
+    dens = np.empty(n)
+    nw = 0
+    for i in range(n):
+        width = b[i] - a[i]
+        k[i] = np.int64(min(max(np.ceil(width / subbox_bins), 1.0), max_subboxes))
+        dens[i] = max(e[i] / max(width, 1e-9), 1e-300)
+        if k[i] > 1:
+            nw += 1
+    wide = np.empty(nw, np.int64)
+    p = 0
+    for i in range(n):
+        if k[i] > 1:
+            wide[p] = i
+            p += 1
+    return k, wide, dens
+
+
+@numba.njit(cache=True)
+def splat_narrow_and_sub(rows, a, b, e, k, src, sa, sb, e_sub, n_rows, n_bins):
+    """:func:`splat_boxes` of the footprints with one sub-box (k == 1) followed by the
+    sub-boxes (source ray ``src``, spans [sa, sb), energies ``e_sub``), in that order."""
+    nn = 0
+    for i in range(k.size):
+        if k[i] == 1:
+            nn += 1
+    m = nn + src.size
+    rr = np.empty(m, np.int64)
+    aa = np.empty(m)
+    bb = np.empty(m)
+    ee = np.empty(m)
+    p = 0
+    for i in range(k.size):
+        if k[i] == 1:
+            rr[p], aa[p], bb[p], ee[p] = rows[i], a[i], b[i], e[i]
+            p += 1
+    for j in range(src.size):
+        rr[p], aa[p], bb[p], ee[p] = rows[src[j]], sa[j], sb[j], e_sub[j]
+        p += 1
+    return splat_boxes(rr, aa, bb, ee, n_rows, n_bins)
+
+
+@numba.njit(cache=True)
+def label_cells(rows, a, b, bg, lab, n_rows, n_bins):
+    """Labels (n_rows, n_bins) int32 of the background footprints: 0 where a seabed
+    footprint covers the cell, else −2 where an unlabelled geom's does, else −1; and
+    each footprint's integer cell span [start, end) clipped to [0, n_bins]."""
+    n = rows.size
+    start = np.empty(n, np.int64)
+    end = np.empty(n, np.int64)
+    stride = n_bins + 1
+    c_sb = np.zeros(n_rows * stride, np.int64)
+    c_ot = np.zeros(n_rows * stride, np.int64)
+    for i in range(n):
+        s = np.int64(min(max(np.floor(a[i]), 0.0), float(n_bins)))
+        t = np.int64(min(max(np.ceil(b[i]), 0.0), float(n_bins)))
+        start[i] = s
+        end[i] = t
+        if bg[i] and lab[i] == 0:
+            c_sb[rows[i] * stride + s] += 1
+            c_sb[rows[i] * stride + t] -= 1
+        elif bg[i] and lab[i] == -2:
+            c_ot[rows[i] * stride + s] += 1
+            c_ot[rows[i] * stride + t] -= 1
+    labels = np.empty((n_rows, n_bins), np.int32)
+    for q in range(n_rows):
+        s0 = 0
+        s1 = 0
+        for k in range(n_bins):
+            s0 += c_sb[q * stride + k]
+            s1 += c_ot[q * stride + k]
+            labels[q, k] = 0 if s0 > 0 else (-2 if s1 > 0 else -1)
+    return labels, start, end
+
+
+@numba.njit(cache=True)
+def background_rays(bg, fc, rows, energy, r, dirs, origin, labels, bins_first):
+    """:func:`background_positions` of the background rays whose footprint centre lies in
+    the image (cell = row · n_bins + floor(fc)), for the cells whose label is not −1."""
+    n_rows, n_bins = labels.shape
+    m = 0
+    for i in range(fc.size):
+        if bg[i] and fc[i] >= 0 and fc[i] < n_bins:
+            m += 1
+    cell = np.empty(m, np.int64)
+    ew = np.empty(m)
+    ewr = np.empty(m)
+    d = np.empty((m, 3))
+    p = 0
+    for i in range(fc.size):
+        if bg[i] and fc[i] >= 0 and fc[i] < n_bins:
+            cell[p] = rows[i] * n_bins + np.int64(fc[i])
+            ew[p] = energy[i] + 1e-300
+            ewr[p] = ew[p] * r[i]
+            d[p, 0], d[p, 1], d[p, 2] = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+            p += 1
+    want = labels.reshape(-1) != -1
+    return background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_first)

@@ -26,6 +26,10 @@ import mujoco
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
+from sim.sonar.ray_cones import RayCones, gather_hits, near_rays, ray_cones
+
+__all__ = ["EmbreeRays", "MujocoRays", "RayCones", "RayHits", "make_backend", "ray_cones"]
+
 
 @dataclass(frozen=True)
 class RayHits:
@@ -253,6 +257,9 @@ class EmbreeRays:
         self.mujoco = (
             MujocoRays(model, bodyexclude, flg_static=False) if self.dyn_geoms.size else None
         )
+        self._dyn_rbound = np.ascontiguousarray(model.geom_rbound[self.dyn_geoms], np.float64)
+        self._origin32 = np.zeros(3, np.float32)  # the cast's origin, relative to center
+        self._views: tuple[int, np.ndarray, np.ndarray] | None = None  # (n, origins, tmax)
 
     def cast_static(self, origins: np.ndarray, dirs: np.ndarray, cutoff: float) -> RayHits:
         """Rays from many origins (N, 3) world m against the static scene only (secondary
@@ -281,16 +288,11 @@ class EmbreeRays:
         meets a moving geom's bounding sphere (same rays found, far fewer tested)."""
         n = dirs.shape[0]
         if self.scene is not None:
-            # one float32 origin for all rays (a zero-stride view: Embree only reads it)
-            o1 = (np.asarray(origin, float) - self.center).astype(np.float32)
-            o = as_strided(o1, shape=(n, 3), strides=(0, o1.itemsize), writeable=True)
-            tmax = np.full(n, cutoff, np.float32)  # Embree ignores hits beyond tfar
+            o, tmax = self._ray_buffers(origin, n, cutoff)
             res = self.scene.run(o, np.ascontiguousarray(dirs, np.float32), tmax, output=1)
-            prim = res["primID"]
-            dist = res["tfar"].astype(np.float64)
-            dist[prim < 0] = np.inf
-            geom = np.take(self.face_geom, prim)  # −1 for misses
-            normal = np.take(self.face_normal, prim, axis=0)  # zeros for misses
+            dist, geom, normal = gather_hits(
+                res["primID"], res["tfar"], self.face_geom, self.face_normal
+            )
         else:
             dist = np.full(n, np.inf)
             geom = np.full(n, -1, np.int32)
@@ -306,85 +308,27 @@ class EmbreeRays:
                 normal[k] = h.normal[closer]
         return RayHits(dist, geom, normal)
 
+    def _ray_buffers(self, origin, n: int, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
+        """Embree's inputs for n rays from ``origin``: the origins (n, 3) float32, a
+        zero-stride view of one buffer (Embree only reads it), and the far limits (n,)
+        float32 (``cutoff``; Embree writes the hit distances there), reused between casts."""
+        if self._views is None or self._views[0] != n:
+            o = as_strided(self._origin32, shape=(n, 3), strides=(0, 4), writeable=True)
+            self._views = (n, o, np.empty(n, np.float32))
+        np.subtract(origin, self.center, out=self._origin32, casting="same_kind")
+        tmax = self._views[2]
+        tmax.fill(cutoff)
+        return self._views[1], tmax
+
     def _near_moving(self, data, origin, dirs, cutoff, cones) -> np.ndarray:
         """Indices of the rays passing within a moving geom's bounding sphere (those go to
         MuJoCo). With ``cones``, only the rays of chunks whose cone can meet a sphere are
         tested ray by ray."""
         c = data.geom_xpos[self.dyn_geoms] - origin  # (G, 3)
-        rb = self.model.geom_rbound[self.dyn_geoms]
-        cand = None if cones is None else cones.candidates(c, rb, cutoff)
-        sub = dirs if cand is None else dirs[cand]
-        if sub.shape[0] == 0:
-            return np.zeros(0, np.int64)
-        t = sub @ c.T  # (N, G) distance along each ray to the closest approach
-        d2 = np.sum(c * c, axis=1)[None, :] - t * t
-        near = ((d2 <= (rb * rb)[None, :]) & (t >= -rb[None, :]) & (t - rb[None, :] <= cutoff)).any(
-            axis=1
-        )
-        idx = np.flatnonzero(near)
-        return idx if cand is None else cand[idx]
-
-
-#: a geom whose bounding-sphere centre is nearer than this many radii to the origin is
-#: tested ray by ray (the cone bound assumes the sphere lies ahead of the origin)
-_CONE_NEAR_RADII = 2.0
-_CONE_MARGIN_RAD = 1e-6  # round-off allowance on every cone comparison
-
-
-@dataclass(frozen=True)
-class RayCones:
-    """Bounding cones of consecutive chunks of a ray bundle: chunk k holds rays
-    ``k·chunk … (k + 1)·chunk − 1``; every one lies within ``half_angle[k]`` (rad) of the
-    unit ``axes[k]`` (same frame as the rays). ``n``: number of rays."""
-
-    axes: np.ndarray
-    half_angle: np.ndarray
-    chunk: int
-    n: int
-
-    def rotated(self, R: np.ndarray) -> RayCones:
-        """The cones of the rays ``d @ R.T`` (e.g. sensor frame → world frame)."""
-        return RayCones(self.axes @ R.T, self.half_angle, self.chunk, self.n)
-
-    def candidates(self, centres: np.ndarray, radii: np.ndarray, cutoff: float):
-        """Ray indices (sorted int64) that may pass within ``radii`` (G,) m of the sphere
-        ``centres`` (G, 3) m (relative to the rays' origin) before ``cutoff`` m; None when
-        a sphere is too near the origin for the cone bound (test every ray)."""
-        dist = np.sqrt(np.sum(centres * centres, axis=1))
-        if np.any(dist <= _CONE_NEAR_RADII * radii):
-            return None
-        # a ray within distance rb of the centre has t ≥ sqrt(|c|² − rb²) along it
-        live = np.sqrt(dist * dist - radii * radii) - radii <= cutoff
-        if not live.any():
-            return np.zeros(0, np.int64)
-        u = centres[live] / dist[live, None]
-        alpha = np.arcsin(radii[live] / dist[live])  # angular radius of each sphere
-        ang = np.arccos(np.clip(self.axes @ u.T, -1.0, 1.0))  # (K, G)
-        hit = (ang <= self.half_angle[:, None] + alpha[None, :] + _CONE_MARGIN_RAD).any(axis=1)
-        chunks = np.flatnonzero(hit)
-        idx = (chunks[:, None] * self.chunk + np.arange(self.chunk)[None, :]).ravel()
-        return idx[idx < self.n]
-
-
-def ray_cones(dirs: np.ndarray, chunk: int = 64) -> RayCones:
-    """Bounding cones of consecutive chunks of ``chunk`` unit directions ``dirs`` (N, 3)
-    (see :class:`RayCones`); the axis is each chunk's normalised mean direction."""
-    d = np.asarray(dirs, float)
-    n = d.shape[0]
-    k = max(1, -(-n // chunk))
-    pad = (
-        np.concatenate([d, np.repeat(d[-1:], k * chunk - n, axis=0)])
-        if n
-        else np.zeros((k * chunk, 3))
-    )
-    blocks = pad.reshape(k, chunk, 3)
-    s = blocks.sum(axis=1)
-    ln = np.linalg.norm(s, axis=1)
-    axes = np.where(ln[:, None] > 1e-9, s / np.maximum(ln, 1e-300)[:, None], np.array([1.0, 0, 0]))
-    cosang = np.clip(np.einsum("kcj,kj->kc", blocks, axes), -1.0, 1.0)
-    half = np.arccos(cosang.min(axis=1))
-    half = np.where(ln > 1e-9, half, np.pi)
-    return RayCones(axes, half + _CONE_MARGIN_RAD, int(chunk), int(n))
+        d = np.asarray(dirs, np.float64)
+        if cones is None:
+            return near_rays(d, None, c, self._dyn_rbound, float(cutoff))
+        return cones.near(d, c, self._dyn_rbound, cutoff)
 
 
 def make_backend(
