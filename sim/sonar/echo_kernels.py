@@ -83,57 +83,83 @@ def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_fi
     are indexed row · n_bins + bin (``cell``, ``want``), the output likewise or, with
     ``bins_first``, bin · n_rows + row.
 
-    Cells holding rays' footprint centres (``cell`` (M,) int64, energies ``ew``, ``ewr`` =
-    ew·r, directions ``d`` (M, 3)) get origin + Σ E·r·d / Σ E; every wanted cell gets that
-    value linearly interpolated over the cell index between such cells (held constant
-    beyond the first and last), exactly as ``origin[c] + np.interp(query, known, …)``.
+    Cells holding rays' footprint centres (``cell`` (M,) int64, energies ``ew`` > 0,
+    ``ewr`` = ew·r, directions ``d`` (M, 3)) get origin + Σ E·r·d / Σ E (sums in input
+    order); every wanted cell gets that value linearly interpolated over the cell index
+    between such cells (held constant beyond the first and last), exactly as
+    ``origin[c] + np.interp(query, known, …)``.
     """
     size = n_rows * n_bins
-    den = np.zeros(size)
-    num = np.zeros((3, size))
-    for i in range(cell.size):
-        den[cell[i]] += ew[i]
-    for c in range(3):
-        for i in range(cell.size):
-            num[c, cell[i]] += ewr[i] * d[i, c]
-    out = np.full((size, 3), np.nan)
+    out = np.empty((size, 3))
+    order = np.argsort(cell, kind="mergesort")  # stable: each cell's rays in input order
     nk = 0
-    for k in range(size):
-        if den[k] > 0:
+    for i in range(order.size):
+        if i == 0 or cell[order[i]] != cell[order[i - 1]]:
             nk += 1
     if nk == 0:
+        out[:] = np.nan
         return out
     xk = np.empty(nk)
     yk = np.empty((3, nk))
-    j = 0
-    for k in range(size):
-        if den[k] > 0:
-            xk[j] = k
+    j = -1
+    den = 0.0
+    num = np.zeros(3)
+    for i in range(order.size + 1):
+        if i == order.size or (i > 0 and cell[order[i]] != cell[order[i - 1]]):
             for c in range(3):
-                yk[c, j] = num[c, k] / den[k]
+                yk[c, j] = num[c] / den
+            if i == order.size:
+                break
+        o = order[i]
+        if i == 0 or cell[o] != cell[order[i - 1]]:
             j += 1
-    j = 0
-    for q in range(size):
-        if not want[q]:
-            continue
-        x = float(q)
-        t = (q % n_bins) * n_rows + q // n_bins if bins_first else q
-        while j + 1 < nk and xk[j + 1] <= x:
-            j += 1
+            xk[j] = cell[o]
+            den = 0.0
+            num[:] = 0.0
+        den += ew[o]
         for c in range(3):
-            if x <= xk[0]:
-                v = yk[c, 0]
-            elif j == nk - 1 or xk[j] == x:
-                v = yk[c, j]
-            else:
-                slope = (yk[c, j + 1] - yk[c, j]) / (xk[j + 1] - xk[j])
-                v = slope * (x - xk[j]) + yk[c, j]
-                if np.isnan(v):
-                    v = slope * (x - xk[j + 1]) + yk[c, j + 1]
-                    if np.isnan(v) and yk[c, j] == yk[c, j + 1]:
-                        v = yk[c, j]
-            out[t, c] = origin[c] + v
+            num[c] += ewr[o] * d[o, c]
+    if not bins_first:
+        j = 0
+        for q in range(size):
+            j = _interp_cell(out, q, q, j, xk, yk, origin, want[q])
+        return out
+    # (bins, rows) layout: write the output in order, one search pointer per row
+    jr = np.empty(n_rows, np.int64)
+    for r in range(n_rows):
+        jr[r] = max(np.searchsorted(xk, r * n_bins, side="right") - 1, 0)
+    for k in range(n_bins):
+        for r in range(n_rows):
+            q = r * n_bins + k
+            jr[r] = _interp_cell(out, k * n_rows + r, q, jr[r], xk, yk, origin, want[q])
     return out
+
+
+@numba.njit(cache=True, inline="always")
+def _interp_cell(out, t, q, j, xk, yk, origin, wanted):
+    """Write row t of ``out``: NaN, or origin + the interpolated position at cell q;
+    returns the search pointer j (largest index with xk[j] ≤ q, else 0)."""
+    if not wanted:
+        out[t, 0] = out[t, 1] = out[t, 2] = np.nan
+        return j
+    nk = xk.size
+    x = float(q)
+    while j + 1 < nk and xk[j + 1] <= x:
+        j += 1
+    for c in range(3):
+        if x <= xk[0]:
+            v = yk[c, 0]
+        elif j == nk - 1 or xk[j] == x:
+            v = yk[c, j]
+        else:
+            slope = (yk[c, j + 1] - yk[c, j]) / (xk[j + 1] - xk[j])
+            v = slope * (x - xk[j]) + yk[c, j]
+            if np.isnan(v):
+                v = slope * (x - xk[j + 1]) + yk[c, j + 1]
+                if np.isnan(v) and yk[c, j] == yk[c, j + 1]:
+                    v = yk[c, j]
+        out[t, c] = origin[c] + v
+    return j
 
 
 @numba.njit(cache=True)

@@ -156,9 +156,12 @@ class SideScanSonar:
             dirs = self._probe_local @ R.T
             dist = self.mount.backend.cast(data, origin, dirs, self.config.max_range).dist
         ok = dist <= self.config.max_range  # inf (no hit) fails too
-        if not np.any(ok):
+        h = np.sort(-dirs[ok, 2] * dist[ok])
+        k = h.size
+        if k == 0:
             return float("nan")
-        return float(np.median(-dirs[ok, 2] * dist[ok]))
+        # the median as np.median computes it (mean of the middle two for even k)
+        return float(h[k // 2]) if k % 2 else float((h[k // 2 - 1] + h[k // 2]) / 2.0)
 
     def _cast_ping(self, data, origin, R) -> tuple[float, RayFan, np.ndarray, RayHits]:
         """Altitude (m), the ping's fan, its world directions (N, 3) and its hits. The
