@@ -8,7 +8,11 @@ side by side in the same run. Rates are given by wall clock (``*_per_s_*``) and 
 process's CPU time (``*_per_cpu_s_*``, single-threaded work, so equal to the wall rate on
 an idle core; on a shared machine the wall rate drops with the load average, also printed).
 
-    undersea bench sonar [--json] [--pings N] [--frames N] [--quick]
+    undersea bench sonar [--json] [--pings N] [--frames N] [--quick] [--compare DIR ...]
+
+``--compare DIR``: also time a default SSS ping and the 256 × 512 × 16 FLS frame with the
+sonar code of another checkout (e.g. ``git worktree add /tmp/pre f591a7e``), called in
+turn with this code's at each pose in this run, and print this code's rate over theirs.
 """
 
 from __future__ import annotations
@@ -135,6 +139,68 @@ def fls_echo_share(cfg, sc, mover, n: int) -> dict:
     }
 
 
+def _sonar_api(root: str):
+    """(SideScanSonar, ForwardLookingSonar, preset) of the ``sim.sonar`` package under
+    ``root`` (another checkout of this repository), imported beside this one: its modules
+    are loaded under the ``sim`` names, kept alive by the returned classes, and this
+    checkout's modules put back afterwards."""
+    from pathlib import Path
+
+    if not (Path(root) / "sim" / "sonar" / "__init__.py").is_file():
+        raise SystemExit(f"--compare {root!r}: no sim/sonar package there")
+    ours = {k: v for k, v in sys.modules.items() if k == "sim" or k.startswith("sim.")}
+    for k in ours:
+        del sys.modules[k]
+    sys.path.insert(0, str(root))
+    try:
+        import sim.sonar as theirs
+
+        api = (theirs.SideScanSonar, theirs.ForwardLookingSonar, theirs.preset)
+    finally:
+        sys.path.remove(str(root))
+        for k in [k for k in sys.modules if k == "sim" or k.startswith("sim.")]:
+            del sys.modules[k]
+        sys.modules.update(ours)
+    return api
+
+
+def compare_codes(roots: list[str], sc, mover, n: int) -> dict:
+    """Process-CPU ms of a default SSS ping and of a 256 × 512 × 16 FLS frame with this
+    code and with the code under each of ``roots``, called in turn at every pose (the
+    first pose warms up); medians and this code's speed-up over each."""
+    from sim.sonar import ForwardLookingSonar, SideScanSonar, preset
+
+    d = sc.data
+    args = (sc.geom_object_id, sc.geom_reflectivity, sc.water)
+    fls_kw = dict(n_beams=256, n_bins=512, rays_per_beam=16, max_range=100.0)
+    codes = {"this": (SideScanSonar, ForwardLookingSonar, preset)}
+    codes.update({r: _sonar_api(r) for r in roots})
+    sonars = {}
+    for name, (S, F, P) in codes.items():
+        sss = S(P("deepeye680d"), sc.model, d, sc.sites["sss"], *args)
+        fls = F(P("blueview_p900_90", **fls_kw), sc.model, d, sc.sites["fls"], *args)
+        sonars[name] = (sss, fls, np.random.default_rng(0))
+    t = {(name, kind): [] for name in codes for kind in ("sss", "fls")}
+    for k in range(n + 1):
+        mover(k)
+        for name, (sss, fls, rng) in sonars.items():
+            ts = _cpu(lambda sss=sss, rng=rng: sss.ping(d, rng))
+            tf = _cpu(lambda fls=fls, rng=rng: fls.frame(d, rng)) if k % 4 == 0 else None
+            if k:
+                t[name, "sss"].append(ts)
+                if tf is not None:
+                    t[name, "fls"].append(tf)
+    ms = {key: 1e3 * float(np.median(v)) for key, v in t.items()}
+    out = {"compare_ms_sss_ping_this": round(ms["this", "sss"], 3)}
+    out["compare_ms_fls_frame_this"] = round(ms["this", "fls"], 3)
+    for r in roots:
+        out[f"compare_ms_sss_ping_{r}"] = round(ms[r, "sss"], 3)
+        out[f"compare_ms_fls_frame_{r}"] = round(ms[r, "fls"], 3)
+        out[f"compare_sss_speedup_over_{r}"] = round(ms[r, "sss"] / ms["this", "sss"], 2)
+        out[f"compare_fls_speedup_over_{r}"] = round(ms[r, "fls"] / ms["this", "fls"], 2)
+    return out
+
+
 #: issue 16's goals for the ratios measured in one run (name: (comparison, goal, note))
 GOALS = {
     "sss_ping_over_cast": ("<=", 1.5, "SSS ping total / its own ray cast"),
@@ -161,6 +227,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pings", type=int, default=400, help="SSS pings per backend (default 400)")
     ap.add_argument("--frames", type=int, default=40, help="FLS frames per backend (default 40)")
     ap.add_argument("--quick", action="store_true", help="small counts for a smoke run")
+    ap.add_argument(
+        "--compare",
+        nargs="+",
+        default=[],
+        metavar="DIR",
+        help="other checkouts whose sonar code is timed in turn with this one's",
+    )
     args = ap.parse_args(argv)
     if args.quick:
         args.pings, args.frames = 20, 3
@@ -276,6 +349,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     out.update(ping_vs_cast(sss, sc, mover, args.pings))
     out.update(fls_echo_share(fls_cfg, sc, mover, max(3, args.frames // 2)))
+    if args.compare:
+        out.update(compare_codes(args.compare, sc, mover, args.pings))
     msis = MSISSonar(
         preset("msis"),
         *args_common,

@@ -119,47 +119,42 @@ def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_fi
         den += ew[o]
         for c in range(3):
             num[c] += ewr[o] * d[o, c]
-    if not bins_first:
-        j = 0
-        for q in range(size):
-            j = _interp_cell(out, q, q, j, xk, yk, origin, want[q])
-        return out
-    # (bins, rows) layout: write the output in order, one search pointer per row
+    slopes = np.empty((nk, 3))  # numpy's interpolation slope of each segment
+    for j in range(nk - 1):
+        for c in range(3):
+            slopes[j, c] = (yk[c, j + 1] - yk[c, j]) / (xk[j + 1] - xk[j])
+    # the output in its own order (rows × bins or bins × rows), one search pointer per row
     jr = np.empty(n_rows, np.int64)
     for r in range(n_rows):
         jr[r] = max(np.searchsorted(xk, r * n_bins, side="right") - 1, 0)
-    for k in range(n_bins):
-        for r in range(n_rows):
-            q = r * n_bins + k
-            jr[r] = _interp_cell(out, k * n_rows + r, q, jr[r], xk, yk, origin, want[q])
-    return out
-
-
-@numba.njit(cache=True, inline="always")
-def _interp_cell(out, t, q, j, xk, yk, origin, wanted):
-    """Write row t of ``out``: NaN, or origin + the interpolated position at cell q;
-    returns the search pointer j (largest index with xk[j] ≤ q, else 0)."""
-    if not wanted:
-        out[t, 0] = out[t, 1] = out[t, 2] = np.nan
-        return j
-    nk = xk.size
-    x = float(q)
-    while j + 1 < nk and xk[j + 1] <= x:
-        j += 1
-    for c in range(3):
-        if x <= xk[0]:
-            v = yk[c, 0]
-        elif j == nk - 1 or xk[j] == x:
-            v = yk[c, j]
+    for t in range(size):
+        if bins_first:
+            r = t % n_rows
+            q = r * n_bins + t // n_rows
         else:
-            slope = (yk[c, j + 1] - yk[c, j]) / (xk[j + 1] - xk[j])
-            v = slope * (x - xk[j]) + yk[c, j]
-            if np.isnan(v):
-                v = slope * (x - xk[j + 1]) + yk[c, j + 1]
-                if np.isnan(v) and yk[c, j] == yk[c, j + 1]:
-                    v = yk[c, j]
-        out[t, c] = origin[c] + v
-    return j
+            r = t // n_bins
+            q = t
+        if not want[q]:
+            out[t, 0] = out[t, 1] = out[t, 2] = np.nan
+            continue
+        x = float(q)
+        j = jr[r]
+        while j + 1 < nk and xk[j + 1] <= x:
+            j += 1
+        jr[r] = j
+        for c in range(3):
+            if x <= xk[0]:
+                v = yk[c, 0]
+            elif j == nk - 1 or xk[j] == x:
+                v = yk[c, j]
+            else:
+                v = slopes[j, c] * (x - xk[j]) + yk[c, j]
+                if np.isnan(v):
+                    v = slopes[j, c] * (x - xk[j + 1]) + yk[c, j + 1]
+                    if np.isnan(v) and yk[c, j] == yk[c, j + 1]:
+                        v = yk[c, j]
+            out[t, c] = origin[c] + v
+    return out
 
 
 @numba.njit(cache=True)
