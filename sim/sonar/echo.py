@@ -31,7 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim.sonar.echo_kernels import (
-    background_rays,
+    background_positions,
+    centre_cells,
     footprints,
     label_cells,
     neighbour_log_slope,
@@ -246,9 +247,11 @@ def form_echo(
     labels, start, end = label_cells(rows, a, b, bg, lab, n_rows, n_bins)
     # background hit positions: centre cells, then interpolation along range
     flat_lab = labels.reshape(-1)
-    hitpos = background_rays(
-        bg, fc, rows, energy, r, dirs, np.asarray(origin, float), labels, bins_first
-    )
+    cell, ew, ewr, dc = centre_cells(bg, fc, rows, energy, r, dirs, n_bins)
+    order = np.argsort(cell, kind="stable")
+    want = flat_lab != -1
+    o = np.asarray(origin, float)
+    hitpos = background_positions(cell, ew, ewr, dc, o, want, n_rows, n_bins, bins_first, order)
 
     if any_obj:
         # few rays: expand each footprint into its cells (vectorized repeat); sort by id so

@@ -78,11 +78,12 @@ def covered(rows, start, end, n_rows, n_bins):
 
 
 @numba.njit(cache=True)
-def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_first):
+def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_first, order):
     """Hit position (n_rows · n_bins, 3) world m of each wanted cell, NaN elsewhere; cells
     are indexed row · n_bins + bin (``cell``, ``want``), the output likewise or, with
     ``bins_first``, bin · n_rows + row.
 
+    ``order``: a stable argsort of ``cell`` (each cell's rays then come in input order).
     Cells holding rays' footprint centres (``cell`` (M,) int64, energies ``ew`` > 0,
     ``ewr`` = ew·r, directions ``d`` (M, 3)) get origin + Σ E·r·d / Σ E (sums in input
     order); every wanted cell gets that value linearly interpolated over the cell index
@@ -91,7 +92,6 @@ def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_fi
     """
     size = n_rows * n_bins
     out = np.empty((size, 3))
-    order = np.argsort(cell, kind="mergesort")  # stable: each cell's rays in input order
     nk = 0
     for i in range(order.size):
         if i == 0 or cell[order[i]] != cell[order[i - 1]]:
@@ -142,17 +142,19 @@ def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_fi
         while j + 1 < nk and xk[j + 1] <= x:
             j += 1
         jr[r] = j
+        if x <= xk[0] or j == nk - 1 or xk[j] == x:  # at or beyond a known cell
+            k = 0 if x <= xk[0] else j
+            out[t, 0] = origin[0] + yk[0, k]
+            out[t, 1] = origin[1] + yk[1, k]
+            out[t, 2] = origin[2] + yk[2, k]
+            continue
+        dx = x - xk[j]
         for c in range(3):
-            if x <= xk[0]:
-                v = yk[c, 0]
-            elif j == nk - 1 or xk[j] == x:
-                v = yk[c, j]
-            else:
-                v = slopes[j, c] * (x - xk[j]) + yk[c, j]
-                if np.isnan(v):
-                    v = slopes[j, c] * (x - xk[j + 1]) + yk[c, j + 1]
-                    if np.isnan(v) and yk[c, j] == yk[c, j + 1]:
-                        v = yk[c, j]
+            v = slopes[j, c] * dx + yk[c, j]
+            if np.isnan(v):
+                v = slopes[j, c] * (x - xk[j + 1]) + yk[c, j + 1]
+                if np.isnan(v) and yk[c, j] == yk[c, j + 1]:
+                    v = yk[c, j]
             out[t, c] = origin[c] + v
     return out
 
@@ -388,10 +390,9 @@ def label_cells(rows, a, b, bg, lab, n_rows, n_bins):
 
 
 @numba.njit(cache=True)
-def background_rays(bg, fc, rows, energy, r, dirs, origin, labels, bins_first):
-    """:func:`background_positions` of the background rays whose footprint centre lies in
-    the image (cell = row · n_bins + floor(fc)), for the cells whose label is not −1."""
-    n_rows, n_bins = labels.shape
+def centre_cells(bg, fc, rows, energy, r, dirs, n_bins):
+    """The background rays whose footprint centre lies in the image: their cells
+    (row · n_bins + floor(fc)), energies + 1e-300, energy · range and directions."""
     m = 0
     for i in range(fc.size):
         if bg[i] and fc[i] >= 0 and fc[i] < n_bins:
@@ -408,5 +409,4 @@ def background_rays(bg, fc, rows, energy, r, dirs, origin, labels, bins_first):
             ewr[p] = ew[p] * r[i]
             d[p, 0], d[p, 1], d[p, 2] = dirs[i, 0], dirs[i, 1], dirs[i, 2]
             p += 1
-    want = labels.reshape(-1) != -1
-    return background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_first)
+    return cell, ew, ewr, d
