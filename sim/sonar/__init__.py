@@ -20,18 +20,16 @@ from sim.sonar.effects import RealismConfig
 from sim.sonar.fls import FanImage, FLSFrame, ForwardLookingSonar, fan_image, fls_frame
 from sim.sonar.msis import MSISPing, MSISScan, MSISSonar, msis_scan
 from sim.sonar.rays import EmbreeRays, MujocoRays, RayHits, make_backend, static_mesh_from_model
-from sim.sonar.sidescan import (
+from sim.sonar.sidescan import RayFan, SideScanSonar, sss_ping
+from sim.sonar.waterfall import (
     GroundRangeImage,
     Mosaic,
-    RayFan,
-    SideScanSonar,
     SideScanWaterfall,
     SSSPing,
     ground_range,
     mosaic,
     sample_ground_positions,
     slant_to_ground,
-    sss_ping,
 )
 
 __all__ = [

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.sonar.fls import FLSFrame, fan_image
-from sim.sonar.sidescan import SideScanWaterfall, mosaic
+from sim.sonar.waterfall import SideScanWaterfall, mosaic
 
 
 def _plt():

@@ -17,7 +17,8 @@ import numpy as np
 
 from sim.sonar.config import preset
 from sim.sonar.scenes import SceneObject, build_scene
-from sim.sonar.sidescan import SideScanSonar, SideScanWaterfall, mosaic
+from sim.sonar.sidescan import SideScanSonar
+from sim.sonar.waterfall import SideScanWaterfall, mosaic
 
 # A ~20 m wreck lying 25° off north-east: hull, deck house, mast, two debris pieces.
 WRECK_PARTS = (
