@@ -8,11 +8,13 @@ side by side in the same run. Rates are given by wall clock (``*_per_s_*``) and 
 process's CPU time (``*_per_cpu_s_*``, single-threaded work, so equal to the wall rate on
 an idle core; on a shared machine the wall rate drops with the load average, also printed).
 
-    undersea bench sonar [--json] [--pings N] [--frames N] [--quick] [--compare DIR ...]
+    undersea bench sonar [--json] [--pings N] [--frames N] [--quick] [--pre DIR] [--main DIR]
 
-``--compare DIR``: also time a default SSS ping and the 256 × 512 × 16 FLS frame with the
-sonar code of another checkout (e.g. ``git worktree add /tmp/pre f591a7e``), called in
-turn with this code's at each pose in this run, and print this code's rate over theirs.
+``--pre DIR`` / ``--main DIR``: also time a default SSS ping and the 256 × 512 × 16 FLS
+frame with the sonar code of another checkout (``--pre``: the code before issue 16, e.g.
+``git worktree add /tmp/pre f591a7e``; ``--main``: main when this round started), called
+in turn with this code's at each pose in this run; prints this code's speed-up over each
+(issue 16's FLS goal: ≥ 3× the pre-issue-16 code).
 """
 
 from __future__ import annotations
@@ -164,17 +166,18 @@ def _sonar_api(root: str):
     return api
 
 
-def compare_codes(roots: list[str], sc, mover, n: int) -> dict:
+def compare_codes(roots: dict[str, str], sc, mover, n: int) -> dict:
     """Process-CPU ms of a default SSS ping and of a 256 × 512 × 16 FLS frame with this
-    code and with the code under each of ``roots``, called in turn at every pose (the
-    first pose warms up); medians and this code's speed-up over each."""
+    code and with the code under each of ``roots`` (label: checkout directory), called in
+    turn at every pose (the first pose warms up, FLS at every fourth pose); medians and
+    this code's speed-up over each."""
     from sim.sonar import ForwardLookingSonar, SideScanSonar, preset
 
     d = sc.data
     args = (sc.geom_object_id, sc.geom_reflectivity, sc.water)
     fls_kw = dict(n_beams=256, n_bins=512, rays_per_beam=16, max_range=100.0)
     codes = {"this": (SideScanSonar, ForwardLookingSonar, preset)}
-    codes.update({r: _sonar_api(r) for r in roots})
+    codes.update({label: _sonar_api(r) for label, r in roots.items()})
     sonars = {}
     for name, (S, F, P) in codes.items():
         sss = S(P("deepeye680d"), sc.model, d, sc.sites["sss"], *args)
@@ -194,6 +197,7 @@ def compare_codes(roots: list[str], sc, mover, n: int) -> dict:
     out = {"compare_ms_sss_ping_this": round(ms["this", "sss"], 3)}
     out["compare_ms_fls_frame_this"] = round(ms["this", "fls"], 3)
     for r in roots:
+        out[f"compare_dir_{r}"] = roots[r]
         out[f"compare_ms_sss_ping_{r}"] = round(ms[r, "sss"], 3)
         out[f"compare_ms_fls_frame_{r}"] = round(ms[r, "fls"], 3)
         out[f"compare_sss_speedup_over_{r}"] = round(ms[r, "sss"] / ms["this", "sss"], 2)
@@ -209,16 +213,38 @@ GOALS = {
 
 
 def print_goals(out: dict) -> None:
-    """Each issue-16 ratio beside its goal (the bare reference was measured in this run)."""
+    """Each issue-16 ratio beside its goal, with the references measured in this run."""
     print(f"issue 16 ratios (process CPU, load average {out.get('load_average_1min', '?')}):")
+    refs = {
+        "sss_ping_over_cast": "sss_ms_per_ping_total sss_ms_per_ping_cast",
+        "sss_cast_over_bare_embreex": "sss_ms_per_ping_cast sss_ms_per_ping_bare_embreex",
+    }
     for k, (cmp, goal, what) in GOALS.items():
         v = out[k]
         ok = v <= goal if cmp == "<=" else v >= goal
-        print(f"  {what:42s} {v:6.2f}x   goal {cmp} {goal}x   {'met' if ok else 'MISSED'}")
-    print(
-        f"  {'FLS 256x512x16 frames per CPU s':42s} {out['fls_frames_per_cpu_s_embree']:6.1f}"
-        "    goal >= 3x the pre-issue-16 code (benchmarks/README.md: before/after run)"
-    )
+        a, b = (out[x] for x in refs[k].split())
+        print(
+            f"  {what:42s} {a:7.3f} / {b:7.3f} ms = {v:5.2f}x   goal {cmp} {goal}x"
+            f"   {'met' if ok else 'MISSED'}"
+        )
+    for label in ("pre", "main"):
+        if f"compare_fls_speedup_over_{label}" not in out:
+            continue
+        for kind, name in (("sss", "SSS ping"), ("fls", "FLS 256x512x16 frame")):
+            unit = "ping" if kind == "sss" else "frame"
+            this = out[f"compare_ms_{kind}_{unit}_this"]
+            them = out[f"compare_ms_{kind}_{unit}_{label}"]
+            v = out[f"compare_{kind}_speedup_over_{label}"]
+            goal = "   goal >= 3x " + ("met" if v >= 3.0 else "MISSED")
+            print(
+                f"  {name + ' speed-up over ' + label:42s} {them:7.3f} / {this:7.3f} ms ="
+                f" {v:5.2f}x{goal if (kind, label) == ('fls', 'pre') else ''}"
+            )
+    if "compare_fls_speedup_over_pre" not in out:
+        print(
+            f"  {'FLS 256x512x16 frames per CPU s':42s} {out['fls_frames_per_cpu_s_embree']:6.1f}"
+            "    goal >= 3x the pre-issue-16 code: run with --pre DIR (checkout of f591a7e)"
+        )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -227,13 +253,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pings", type=int, default=400, help="SSS pings per backend (default 400)")
     ap.add_argument("--frames", type=int, default=40, help="FLS frames per backend (default 40)")
     ap.add_argument("--quick", action="store_true", help="small counts for a smoke run")
-    ap.add_argument(
-        "--compare",
-        nargs="+",
-        default=[],
-        metavar="DIR",
-        help="other checkouts whose sonar code is timed in turn with this one's",
-    )
+    ap.add_argument("--pre", metavar="DIR", help="checkout of the pre-issue-16 code to compare")
+    ap.add_argument("--main", metavar="DIR", help="checkout of main at the round's start")
     args = ap.parse_args(argv)
     if args.quick:
         args.pings, args.frames = 20, 3
@@ -349,8 +370,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     out.update(ping_vs_cast(sss, sc, mover, args.pings))
     out.update(fls_echo_share(fls_cfg, sc, mover, max(3, args.frames // 2)))
-    if args.compare:
-        out.update(compare_codes(args.compare, sc, mover, args.pings))
+    roots = {k: v for k, v in (("pre", args.pre), ("main", args.main)) if v}
+    if roots:
+        out.update(compare_codes(roots, sc, mover, max(8, args.pings // 3)))
     msis = MSISSonar(
         preset("msis"),
         *args_common,

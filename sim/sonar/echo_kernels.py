@@ -60,24 +60,6 @@ def splat_boxes(rows, a, b, e, n_rows, n_bins):
 
 
 @numba.njit(cache=True)
-def covered(rows, start, end, n_rows, n_bins):
-    """Bool (n_rows, n_bins): cells covered by at least one integer span [start, end)
-    of row ``rows`` (spans clipped to [0, n_bins] by the caller)."""
-    stride = n_bins + 1
-    c = np.zeros(n_rows * stride, np.int64)
-    for i in range(rows.size):
-        c[rows[i] * stride + start[i]] += 1
-        c[rows[i] * stride + end[i]] -= 1
-    out = np.empty((n_rows, n_bins), np.bool_)
-    for r in range(n_rows):
-        s = 0
-        for k in range(n_bins):
-            s += c[r * stride + k]
-            out[r, k] = s > 0
-    return out
-
-
-@numba.njit(cache=True)
 def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_first, order):
     """Hit position (n_rows · n_bins, 3) world m of each wanted cell, NaN elsewhere; cells
     are indexed row · n_bins + bin (``cell``, ``want``), the output likewise or, with

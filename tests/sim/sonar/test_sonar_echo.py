@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim.sonar.echo import _splat_energy
-from sim.sonar.echo_kernels import covered
+from sim.sonar.echo_kernels import label_cells
 
 
 @settings(max_examples=50, deadline=None)
@@ -35,18 +35,31 @@ def test_box_splat_equals_bruteforce_overlap(seed, n):
 
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 10_000))
-def test_coverage_counts_spans(seed):
-    """Brute force: cell k of row r is covered by the spans [s, e) of that row containing k."""
+def test_label_cells_follow_the_covering_spans(seed):
+    """Brute force: cell k of row r is 0 when a seabed background footprint's cell span
+    [floor(a), ceil(b)) of that row contains it, else −2 when an unlabelled geom's does,
+    else −1; object (label ≥ 1) and non-background footprints label nothing."""
     rng = np.random.default_rng(seed)
-    s = rng.integers(0, 30, 50)
-    e = np.minimum(s + rng.integers(0, 8, 50), 30)
-    rows = rng.integers(0, 2, 50)
-    cov = covered(rows, s, e, 2, 30)
+    n = 60
+    a = rng.uniform(-3.0, 32.0, n)
+    b = a + rng.uniform(0.0, 8.0, n)
+    rows = rng.integers(0, 2, n)
+    lab = rng.choice(np.array([0, -2, 3], np.int32), n)
+    bg = (lab != 3) & (rng.uniform(size=n) < 0.9)
+    labels, start, end = label_cells(rows, a, b, bg, lab, 2, 30)
+    s = np.clip(np.floor(a), 0, 30).astype(int)
+    e = np.clip(np.ceil(b), 0, 30).astype(int)
+    np.testing.assert_array_equal(start, s)
+    np.testing.assert_array_equal(end, e)
     k = np.arange(30)
-    ref = np.stack(
-        [((rows[:, None] == r) & (s[:, None] <= k) & (k < e[:, None])).sum(0) for r in (0, 1)]
-    )
-    np.testing.assert_array_equal(cov, ref > 0)
+    for r in (0, 1):
+        inside = (rows[:, None] == r) & (s[:, None] <= k) & (k < e[:, None]) & bg[:, None]
+        ref = np.where(
+            (inside & (lab[:, None] == 0)).any(0),
+            0,
+            np.where((inside & (lab[:, None] == -2)).any(0), -2, -1),
+        )
+        np.testing.assert_array_equal(labels[r], ref)
 
 
 def test_form_echo_same_bytes_as_the_array_version():
