@@ -217,7 +217,7 @@ def form_echo(
         )
     # two-way absorption (np.exp: numpy's, as before, for the same bytes)
     att = np.exp((-0.2 * np.log(10.0) * alpha_db_m) * r)
-    energy, fc, a, b, link = footprints(
+    energy, e_bg, bg, fc, a, b, link = footprints(
         gain,
         refl,
         sigma_over_cos,
@@ -240,15 +240,12 @@ def form_echo(
     link = None if neighbours is None else link
     is_obj = lab >= 1
     any_obj = bool(is_obj.any())
-    bg = hit & ~is_obj if any_obj else hit
-
-    e_bg = energy if not any_obj else np.where(bg, energy, 0.0)  # objects are added below
     mean = _splat_shaped(rows, a, b, e_bg, fc, r / bin_width, link, n_rows, n_bins)
     labels, start, end = label_cells(rows, a, b, bg, lab, n_rows, n_bins)
     # background hit positions: centre cells, then interpolation along range
     flat_lab = labels.reshape(-1)
-    cell, ew, ewr, dc = centre_cells(bg, fc, rows, energy, r, dirs, n_bins)
-    order = np.argsort(cell, kind="stable")
+    cell, key, ew, ewr, dc = centre_cells(bg, fc, rows, energy, r, dirs, n_bins)
+    order = np.sort(key)  # unique keys: each cell's rays stay in input order
     want = flat_lab != -1
     o = np.asarray(origin, float)
     hitpos = background_positions(cell, ew, ewr, dc, o, want, n_rows, n_bins, bins_first, order)

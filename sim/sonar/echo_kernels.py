@@ -65,7 +65,8 @@ def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_fi
     are indexed row · n_bins + bin (``cell``, ``want``), the output likewise or, with
     ``bins_first``, bin · n_rows + row.
 
-    ``order``: a stable argsort of ``cell`` (each cell's rays then come in input order).
+    ``order``: the sorted keys of :func:`centre_cells` (cells ascending, each cell's rays
+    in input order).
     Cells holding rays' footprint centres (``cell`` (M,) int64, energies ``ew`` > 0,
     ``ewr`` = ew·r, directions ``d`` (M, 3)) get origin + Σ E·r·d / Σ E (sums in input
     order); every wanted cell gets that value linearly interpolated over the cell index
@@ -74,6 +75,7 @@ def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_fi
     """
     size = n_rows * n_bins
     out = np.empty((size, 3))
+    order = order % max(cell.size, 1)  # sorted keys → ray indices
     nk = 0
     for i in range(order.size):
         if i == 0 or cell[order[i]] != cell[order[i - 1]]:
@@ -240,12 +242,15 @@ def footprints(
     gain, refl, soc, att, r, hit, ndd, cos_i, lab, d_dirs, neighbours, r_min, bin_width,
     n_bins, footprint_scale, min_ext, max_ext, max_fraction,
 ):  # fmt: skip
-    """Energy (gain·refl·σ/cos·att / max(r, 1 mm)², 0 for a miss), footprint centre fc and
+    """Energy (gain·refl·σ/cos·att / max(r, 1 mm)², 0 for a miss), the same on background
+    hits only (0 on objects), background-hit mask, footprint centre fc and
     ends [a, b) in fractional bins (see :func:`sim.sonar.echo.form_echo`), and the links
     (N − 1,) between consecutive ``neighbours`` rays on the same labelled surface, whose
     facing footprint ends meet where their shared angular cell edge lands."""
     n = r.size
     energy = np.empty(n)
+    e_bg = np.empty(n)
+    bg = np.empty(n, np.bool_)
     fc = np.empty(n)
     a = np.empty(n)
     b = np.empty(n)
@@ -254,6 +259,8 @@ def footprints(
         rs = max(r[i], 1e-3)
         e = gain[i] * refl[i] * soc[i]
         energy[i] = e * (att[i] / (rs * rs)) if hit[i] else 0.0
+        bg[i] = hit[i] and lab[i] < 1  # objects (label ≥ 1) are added separately
+        e_bg[i] = energy[i] if bg[i] else 0.0
         ext = min(r[i] * ndd[i] / max(cos_i[i], 0.02), max_fraction * r[i]) / bin_width
         ext = min(max(ext * footprint_scale, min_ext), max_ext)
         f = (r[i] - r_min) / bin_width if hit[i] else off
@@ -261,7 +268,7 @@ def footprints(
         a[i] = f - 0.5 * ext
         b[i] = f + 0.5 * ext
     if neighbours is None:
-        return energy, fc, a, b, np.zeros(0, np.bool_)
+        return energy, e_bg, bg, fc, a, b, np.zeros(0, np.bool_)
     link = np.empty(n - 1, np.bool_)
     mid = np.empty(n - 1)
     w = np.empty(n)
@@ -287,7 +294,7 @@ def footprints(
     for j in range(n - 1):
         if link[j] and fc[j + 1] <= fc[j]:
             b[j + 1] = max(mid[j], fc[j + 1] + half)
-    return energy, fc, a, b, link
+    return energy, e_bg, bg, fc, a, b, link
 
 
 @numba.njit(cache=True)
@@ -374,12 +381,14 @@ def label_cells(rows, a, b, bg, lab, n_rows, n_bins):
 @numba.njit(cache=True)
 def centre_cells(bg, fc, rows, energy, r, dirs, n_bins):
     """The background rays whose footprint centre lies in the image: their cells
-    (row · n_bins + floor(fc)), energies + 1e-300, energy · range and directions."""
+    (row · n_bins + floor(fc)), energies + 1e-300, energy · range, directions, and the
+    unique sort keys cell · M + k (k: their order here, M: their count)."""
     m = 0
     for i in range(fc.size):
         if bg[i] and fc[i] >= 0 and fc[i] < n_bins:
             m += 1
     cell = np.empty(m, np.int64)
+    key = np.empty(m, np.int64)
     ew = np.empty(m)
     ewr = np.empty(m)
     d = np.empty((m, 3))
@@ -387,8 +396,9 @@ def centre_cells(bg, fc, rows, energy, r, dirs, n_bins):
     for i in range(fc.size):
         if bg[i] and fc[i] >= 0 and fc[i] < n_bins:
             cell[p] = rows[i] * n_bins + np.int64(fc[i])
+            key[p] = cell[p] * m + p
             ew[p] = energy[i] + 1e-300
             ewr[p] = ew[p] * r[i]
             d[p, 0], d[p, 1], d[p, 2] = dirs[i, 0], dirs[i, 1], dirs[i, 2]
             p += 1
-    return cell, ew, ewr, d
+    return cell, key, ew, ewr, d
