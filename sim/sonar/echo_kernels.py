@@ -111,35 +111,34 @@ def background_positions(cell, ew, ewr, d, origin, want, n_rows, n_bins, bins_fi
     jr = np.empty(n_rows, np.int64)
     for r in range(n_rows):
         jr[r] = max(np.searchsorted(xk, r * n_bins, side="right") - 1, 0)
-    for t in range(size):
-        if bins_first:
-            r = t % n_rows
-            q = r * n_bins + t // n_rows
-        else:
-            r = t // n_bins
-            q = t
-        if not want[q]:
-            out[t, 0] = out[t, 1] = out[t, 2] = np.nan
-            continue
-        x = float(q)
-        j = jr[r]
-        while j + 1 < nk and xk[j + 1] <= x:
-            j += 1
-        jr[r] = j
-        if x <= xk[0] or j == nk - 1 or xk[j] == x:  # at or beyond a known cell
-            k = 0 if x <= xk[0] else j
-            out[t, 0] = origin[0] + yk[0, k]
-            out[t, 1] = origin[1] + yk[1, k]
-            out[t, 2] = origin[2] + yk[2, k]
-            continue
-        dx = x - xk[j]
-        for c in range(3):
-            v = slopes[j, c] * dx + yk[c, j]
-            if np.isnan(v):
-                v = slopes[j, c] * (x - xk[j + 1]) + yk[c, j + 1]
-                if np.isnan(v) and yk[c, j] == yk[c, j + 1]:
-                    v = yk[c, j]
-            out[t, c] = origin[c] + v
+    n_out, n_in = (n_bins, n_rows) if bins_first else (n_rows, n_bins)
+    for u in range(n_out):
+        for v in range(n_in):
+            t = u * n_in + v
+            r = v if bins_first else u
+            q = v * n_bins + u if bins_first else t
+            if not want[q]:
+                out[t, 0] = out[t, 1] = out[t, 2] = np.nan
+                continue
+            x = float(q)
+            j = jr[r]
+            while j + 1 < nk and xk[j + 1] <= x:
+                j += 1
+            jr[r] = j
+            if x <= xk[0] or j == nk - 1 or xk[j] == x:  # at or beyond a known cell
+                k = 0 if x <= xk[0] else j
+                out[t, 0] = origin[0] + yk[0, k]
+                out[t, 1] = origin[1] + yk[1, k]
+                out[t, 2] = origin[2] + yk[2, k]
+                continue
+            dx = x - xk[j]
+            for c in range(3):
+                w = slopes[j, c] * dx + yk[c, j]
+                if np.isnan(w):
+                    w = slopes[j, c] * (x - xk[j + 1]) + yk[c, j + 1]
+                    if np.isnan(w) and yk[c, j] == yk[c, j + 1]:
+                        w = yk[c, j]
+                out[t, c] = origin[c] + w
     return out
 
 
