@@ -203,7 +203,9 @@ class EmbreeRays:
 
     ``static_mesh``: optional (V, F, geom_id per face) world-frame triangles, e.g. from
     ``World.static_mesh()``; default: tessellated from ``model``/``data``. Embree runs in
-    float32, so vertices are stored relative to their centroid to keep precision.
+    float32, so vertices are stored relative to their centroid to keep precision. The
+    cast reuses its input buffers between calls: one instance is not for concurrent
+    threads (processes, as ``sim.parallel`` runs them, are fine).
     """
 
     def __init__(
