@@ -144,6 +144,7 @@ class SidescanProcessor:
         shadow: Callable[[np.ndarray], np.ndarray] | None = None,
         shadow_config: ShadowConfig = SHADOW,
         max_object_pings: int | None = None,
+        require_shadow: bool = False,
     ) -> None:
         if not 1 <= hop <= window:
             raise ValueError(f"hop must be in [1, window={window}], got {hop}")
@@ -171,6 +172,12 @@ class SidescanProcessor:
         # objects' shadows give their centres; None: highlights only
         self.shadow = shadow
         self.shadow_config = shadow_config
+        # recorded data: an object standing proud of the seabed casts a shadow; a
+        # highlight without one (bright sediment, a lit rim of a larger object whose
+        # shadow lies beyond shadow_config.max_gap_m) is no repeatable point landmark
+        if require_shadow and shadow is None:
+            raise ValueError("require_shadow needs the shadow callable (extended objects)")
+        self.require_shadow = bool(require_shadow)
         # an object cut by the window's trailing edge is held for the next window until
         # it spans this many pings (default 3 windows)
         self.max_object_pings = int(max_object_pings or 3 * self.window)
@@ -326,6 +333,8 @@ class SidescanProcessor:
                 x, y, np.array([centre.var_rows * spacing**2]), np.array([centre.var_ground])
             )
             rng_, R = rho, cov[0]
+        elif self.require_shadow:
+            return None
         else:
             ext = (obj.bbox[2] - obj.bbox[0], obj.bbox[3] - obj.bbox[1])
             geom = SideScanGeometry(
