@@ -182,6 +182,12 @@ class SidescanProcessor:
         # it spans this many pings (default 3 windows)
         self.max_object_pings = int(max_object_pings or 3 * self.window)
         self._held: list[Part] = []
+        # objects emitted by the last window, (port, pixels): the next window skips
+        # the same object seen again across the ownership boundary
+        self._claimed: list[tuple[bool, np.ndarray]] = []
+        # ownership slack, pings: an object's centroid moves a little between two
+        # windows' segmentations, so each window claims this far past its owned rows
+        self._slack = max(2, self.hop // 20)
         self._long: list[tuple[bool, tuple[int, int, int, int]]] = []
         self.pings: list[PingRecord] = []
         self._next_start = 0  # start ping of the next window
@@ -252,18 +258,22 @@ class SidescanProcessor:
         # as before extended objects: only regions whose centroid this window owns, plus
         # those cut by its trailing edge (and the held ones) may merge - a region owned
         # by an earlier window must not chain its neighbours together
+        m = self._slack
         parts = [
             p
             for p in parts
-            if own_lo <= (p.pix // (2 * S)).mean() + 0.5 < own_hi
-            or (p.bbox[2] >= last and not final)
+            if (
+                own_lo - m <= (p.pix // (2 * S)).mean() + 0.5 < own_hi + m
+                or (p.bbox[2] >= last and not final)
+            )
+            and not self._seen_before(p)  # the last window decided on it
         ]
         # a held object continued by a region too long to be an object is that band's
         # first part, not an object
         held = [h for h in self._held if not _overlaps_any(h, self._long)]
         groups = self._merge(held + parts, rate)
         self._held = []
-        out, keep = [], []
+        out, keep, claimed = [], [], []
         for grp in groups:
             obj = merge_parts(grp, S)
             span = obj.bbox[2] - obj.bbox[0]
@@ -273,12 +283,13 @@ class SidescanProcessor:
             continued = any(id(p) in held_ids for p in grp)
             row = float((obj.pix // (2 * S)).mean())
             k = round(row)
-            if k >= own_hi and not final:  # a later window owns it: hold what was held
+            if k >= own_hi + m and not final:  # a later window owns it: hold what was held
                 if continued:
                     self._held.append(obj)
                 continue
-            if k < own_lo and not continued:  # an earlier window owned it
+            if k < own_lo - m and not continued:  # an earlier window owned it
                 continue
+            claimed.append((obj.port, obj.pix))
             col = float((obj.pix % (2 * S)).mean())
             if edge is not None and a <= k < last:
                 if edge[k - a, min(round(col), img.shape[1] - 1)]:
@@ -288,6 +299,7 @@ class SidescanProcessor:
             if self._too_long(span, obj.ground, first.speed, rate):
                 continue
             keep.append((obj, row, col))
+        self._claimed = claimed
         mirrored = self._mirrored([(row, col) for _, row, col in keep], S)
         for (obj, row, col), twin in zip(keep, mirrored):
             if twin:  # its mirror across nadir: the first-return rim, not an object
@@ -297,6 +309,16 @@ class SidescanProcessor:
                 out.append(det)
         out.sort(key=lambda d: (d.t, d.side, d.ground_range))
         return out
+
+    def _seen_before(self, part: Part) -> bool:
+        """True when the last window decided on this region: one of the objects it
+        claimed, on the same side, shares more than half of the smaller one's pixels."""
+        return any(
+            port == part.port
+            and np.intersect1d(pix, part.pix, assume_unique=True).size
+            > 0.5 * min(pix.size, part.pix.size)
+            for port, pix in self._claimed
+        )
 
     def _detection(self, obj: Part, row: float, col: float, S: int, rate: float):
         """The Detection of one object: its centre from highlight and shadow

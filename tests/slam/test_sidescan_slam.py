@@ -28,7 +28,9 @@ R_MAX, S, H, DT, V = 30.0, 400, 5.0, 0.1, 1.0
 TARGET_PING, TARGET_G0, TARGET_G1, SHADOW_G1 = 150, 12.0, 13.5, 20.0
 
 
-def synthetic_recording(rng: np.random.Generator, pings: int = 300) -> Waterfall:
+def synthetic_recording(
+    rng: np.random.Generator, pings: int = 300, target_ping: int = TARGET_PING
+) -> Waterfall:
     """Northbound straight track at 1 m/s, altitude 5 m; speckled seabed decaying with
     range; one target on starboard at ground range 12-13.5 m over pings 140-160 (2 m
     along track), +13 dB, with its acoustic shadow (-13 dB) out to 20 m. Navigation in metres."""
@@ -37,7 +39,7 @@ def synthetic_recording(rng: np.random.Generator, pings: int = 300) -> Waterfall
     mean = np.where(slant < H, 0.02, np.exp(-slant / 20.0))
     side = np.broadcast_to(mean, (pings, S)).copy()
     stbd = side.copy()
-    rows = slice(TARGET_PING - 10, TARGET_PING + 10)
+    rows = slice(target_ping - 10, target_ping + 10)
     stbd[rows, (g >= TARGET_G0) & (g < TARGET_G1)] *= 20.0  # +13 dB
     # the shadow 13 dB below the seabed (the real Scotsman wreck's: median -14.5 dB re the
     # 75th percentile of its range columns); a -5 dB dip is no shadow (ShadowConfig: 8 dB)
@@ -74,6 +76,22 @@ def test_one_target_becomes_one_landmark_at_its_place():
     assert np.hypot(*(res.landmarks[i] - [12.75, 15.0])) < 1.0
     # the SLAM track stays on the (perfect) navigation within centimetres
     assert np.max(np.hypot(*(res.est_poses[:, :2] - res.nav_poses[:, :2]).T)) < 0.05
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("target_ping", [149, 150, 151])
+def test_a_target_on_the_window_ownership_boundary_is_detected_once(seed, target_ping):
+    """Windows of 200 pings every 100: window 0 owns pings < 150, window 100 the next
+    ones. A target centred there is segmented by both windows, each seeing its centroid
+    a fraction of a ping differently; it is one object, so exactly one detection (seed 2,
+    ping 150 gave two, one per window, before the windows remembered what the last one
+    had decided)."""
+    wf = synthetic_recording(np.random.default_rng(seed), target_ping=target_ping)
+    res = run_sidescan_slam(wf, SidescanSlamConfig())
+    near = [(d.ping, d.side) for d in res.detections if abs(d.ping - target_ping) <= 12]
+    assert near == [(target_ping, "starboard")] or (
+        len(near) == 1 and abs(near[0][0] - target_ping) <= 1
+    ), near
 
 
 def test_mira_option_runs_and_bad_config_names_the_field():
