@@ -20,18 +20,8 @@ An object cut by a window's trailing edge (a wreck longer than the hop) is held 
 merged with its continuation in the next window, so it becomes one detection of the
 whole object (the released horizon waits for it: slam.frontend.extended_objects.Part).
 
-Each detection is tied to the ping k nearest its centre (time t_k). An object that
-casts a shadow is located at its centre from highlight + shadow
-(slam.frontend.extended_objects.object_centre: across-track midpoint between the near
-edge and the top's far edge, the height from the shadow's length), with a covariance
-that says how well that centre is known. Without a shadow (or without the ``shadow``
-callable), the observation comes from the highlight's centroid through the side-scan
-observation model (slam.frontend.observation.range_bearing_from_pixels: ground range
-sqrt(r^2 - h^2), bearing ~ +90 deg (port) / -90 deg (starboard) from the pose at ping
-k, covariance from cell sizes and the region's extent) plus a view-dependent term: the
-highlight is the sonar-facing part of the object, so ``view_bias`` x its across-track
-extent (range) and along-track extent (as a bearing) are added as standard deviations
-(0.5: half the extent). Detections centred in the water column give no observation.
+Each detection is tied to the ping k nearest its centre (time t_k) and located by
+slam.frontend.sidescan_detection (highlight + shadow, else the highlight's centroid).
 slam.pipeline feeds each to SLAM at the pose of t_k (slam.pipeline.lagged).
 
 Scoring uses the simulator's per-sample labels: a detection is a true positive when at
@@ -41,7 +31,6 @@ least ``tp_fraction`` of its region's pixels carry an object id > 0.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,69 +39,10 @@ from slam.frontend.extended_objects import (
     Part,
     ShadowConfig,
     merge_parts,
-    object_centre,
     row_profile,
 )
-from slam.frontend.observation import (
-    SideScanGeometry,
-    range_bearing_from_pixels,
-    xy_cov_to_range_bearing,
-)
-from slam.types import RangeBearing
-
-
-@dataclass(frozen=True)
-class PingRecord:
-    """One side-scan ping as the windowing keeps it.
-
-    t: acquisition time, s. intensity (2S,) float32, port left (far range first).
-    slant_range (S,) m of the starboard half's samples (near to far; port mirrored).
-    altitude: measured altitude (DVL or first return), m. speed: along-track speed
-    estimate, m/s (for the along-track pixel size).
-    Ground truth, optional (scoring only; a recording has none): labels (2S,) int32
-    object id per sample (0 seabed, -1 no return, k >= 1 object k); pose_true (3,)
-    [x, y, yaw]. Without them detections carry object id 0, are not true positives and
-    are placed with ``pose_nav`` (the navigation pose, when given).
-    """
-
-    t: float
-    intensity: np.ndarray
-    slant_range: np.ndarray
-    altitude: float
-    speed: float = 1.5
-    labels: np.ndarray | None = None
-    pose_true: np.ndarray | None = None
-    pose_nav: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
-class Detection:
-    """One side-scan detection tied to the ping of its centroid."""
-
-    t: float
-    ping: int
-    side: str  # "port" | "starboard"
-    slant_range: float
-    ground_range: float
-    area_px: int
-    observation: RangeBearing
-    object_id: int  # majority simulator label of the region (0 = none) - scoring only
-    true_positive: bool
-    world_xy_true_pose: np.ndarray  # placed with the true pose (else the nav pose, else NaN)
-
-
-@dataclass
-class WindowResult:
-    """One segmented window: its image, class-id overlay and detections owned here."""
-
-    start: int
-    image: np.ndarray
-    overlay: np.ndarray
-    detections: list[Detection]
-    horizon_t: float  # every ping at or before this time is final (no later detections)
-    fp_pixels: int = 0
-    bg_pixels: int = 0
-    imaged_ids: set = field(default_factory=set)
+from slam.frontend.sidescan_detection import object_detection
+from slam.frontend.sidescan_records import Detection, PingRecord, WindowResult
 
 
 class SidescanProcessor:
@@ -304,7 +234,20 @@ class SidescanProcessor:
         for (obj, row, col), twin in zip(keep, mirrored):
             if twin:  # its mirror across nadir: the first-return rim, not an object
                 continue
-            det = self._detection(obj, row, col, S, rate)
+            det = object_detection(
+                obj,
+                row,
+                col,
+                S,
+                rate,
+                self.pings,
+                use_shadow=self.shadow is not None,
+                require_shadow=self.require_shadow,
+                altitude_sigma=self.altitude_sigma,
+                along_track_beamwidth_deg=self.along_track_beamwidth_deg,
+                view_bias=self.view_bias,
+                tp_fraction=self.tp_fraction,
+            )
             if det is not None:
                 out.append(det)
         out.sort(key=lambda d: (d.t, d.side, d.ground_range))
@@ -318,80 +261,6 @@ class SidescanProcessor:
             and np.intersect1d(pix, part.pix, assume_unique=True).size
             > 0.5 * min(pix.size, part.pix.size)
             for port, pix in self._claimed
-        )
-
-    def _detection(self, obj: Part, row: float, col: float, S: int, rate: float):
-        """The Detection of one object: its centre from highlight and shadow
-        (slam.frontend.extended_objects) when it casts one, else its highlight's
-        centroid with the view-dependent term; None in the water column."""
-        k = round(row)
-        p = self.pings[k]
-        bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
-        spacing = max(p.speed, 0.05) / rate
-        alts = np.array([self.pings[int(i)].altitude for i in obj.rows])
-        centre = (
-            object_centre(
-                obj,
-                p.slant_range,
-                alts,
-                bin_w,
-                altitude_sigma=self.altitude_sigma,
-                end_sigma_rows=max(
-                    1.0,
-                    float(0.5 * sum(obj.ground) * np.radians(self.along_track_beamwidth_deg))
-                    / spacing,
-                ),
-            )
-            if self.shadow is not None
-            else None
-        )
-        if centre is not None:
-            k = min(max(round(centre.row), 0), len(self.pings) - 1)
-            p = self.pings[k]
-            sign = 1.0 if obj.port else -1.0
-            x = np.array([(centre.row - k) * spacing])
-            y = np.array([sign * centre.ground])
-            rho, brg, cov = xy_cov_to_range_bearing(
-                x, y, np.array([centre.var_rows * spacing**2]), np.array([centre.var_ground])
-            )
-            rng_, R = rho, cov[0]
-        elif self.require_shadow:
-            return None
-        else:
-            ext = (obj.bbox[2] - obj.bbox[0], obj.bbox[3] - obj.bbox[1])
-            geom = SideScanGeometry(
-                slant_range_max=float(p.slant_range[-1] + bin_w / 2),
-                samples_per_side=S,
-                altitude=max(float(p.altitude), 0.0),
-                along_track_spacing=spacing,
-                slant_range_min=max(float(p.slant_range[0] - bin_w / 2), 0.0),
-                along_track_beamwidth_deg=self.along_track_beamwidth_deg,
-                altitude_sigma=self.altitude_sigma,
-            )
-            try:
-                rng_, brg, cov = range_bearing_from_pixels(
-                    geom, np.array([[row - k, col]]), np.array([ext]), ref_row=0.0
-                )
-            except ValueError:  # centroid in the water column (no ground range)
-                return None
-            R = cov[0].copy()
-            if self.view_bias > 0:  # the highlight's place on the object depends on the view
-                R[0, 0] += (self.view_bias * ext[1] * bin_w) ** 2
-                R[1, 1] += (self.view_bias * ext[0] * spacing / max(rng_[0], 1.0)) ** 2
-        obs = RangeBearing([rng_[0], brg[0]], R, t=p.t, meta={"object_id": obj.oid, "ping": k})
-        x0, y0, yaw = _placing_pose(p)
-        wxy = np.array([x0 + rng_[0] * np.cos(yaw + brg[0]), y0 + rng_[0] * np.sin(yaw + brg[0])])
-        return Detection(
-            p.t,
-            k,
-            "port" if obj.port else "starboard",
-            float(np.hypot(rng_[0], p.altitude)),
-            float(rng_[0]),
-            obj.area_px,
-            obs,
-            obj.oid,
-            obj.frac >= self.tp_fraction,
-            wxy,
         )
 
     def _too_long(self, rows: int, ground: tuple[float, float], speed: float, rate: float) -> bool:
@@ -516,12 +385,3 @@ def _overlaps_any(part: Part, boxes: list[tuple[bool, tuple[int, int, int, int]]
         port == part.port and r0 < b[2] and b[0] < r1 and c0 < b[3] and b[1] < c1
         for port, b in boxes
     )
-
-
-def _placing_pose(p: PingRecord) -> np.ndarray:
-    """The pose a detection is placed with: true (scoring), else navigation, else NaN."""
-    if p.pose_true is not None:
-        return np.asarray(p.pose_true, float)
-    if p.pose_nav is not None:
-        return np.asarray(p.pose_nav, float)
-    return np.full(3, np.nan)
