@@ -38,7 +38,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from slam.frontend.bottom_track import fill_track, track_bottom
-from slam.frontend.sidescan_windows import Detection
+from slam.frontend.sidescan_records import Detection
 from slam.io.waterfall import Waterfall
 from slam.pipeline import (
     REAL_SIDESCAN,

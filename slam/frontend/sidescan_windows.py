@@ -20,18 +20,8 @@ An object cut by a window's trailing edge (a wreck longer than the hop) is held 
 merged with its continuation in the next window, so it becomes one detection of the
 whole object (the released horizon waits for it: slam.frontend.extended_objects.Part).
 
-Each detection is tied to the ping k nearest its centre (time t_k). An object that
-casts a shadow is located at its centre from highlight + shadow
-(slam.frontend.extended_objects.object_centre: across-track midpoint between the near
-edge and the top's far edge, the height from the shadow's length), with a covariance
-that says how well that centre is known. Without a shadow (or without the ``shadow``
-callable), the observation comes from the highlight's centroid through the side-scan
-observation model (slam.frontend.observation.range_bearing_from_pixels: ground range
-sqrt(r^2 - h^2), bearing ~ +90 deg (port) / -90 deg (starboard) from the pose at ping
-k, covariance from cell sizes and the region's extent) plus a view-dependent term: the
-highlight is the sonar-facing part of the object, so ``view_bias`` x its across-track
-extent (range) and along-track extent (as a bearing) are added as standard deviations
-(0.5: half the extent). Detections centred in the water column give no observation.
+Each detection is tied to the ping k nearest its centre (time t_k) and located by
+slam.frontend.sidescan_detection (highlight + shadow, else the highlight's centroid).
 slam.pipeline feeds each to SLAM at the pose of t_k (slam.pipeline.lagged).
 
 Scoring uses the simulator's per-sample labels: a detection is a true positive when at
@@ -41,7 +31,6 @@ least ``tp_fraction`` of its region's pixels carry an object id > 0.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,69 +39,10 @@ from slam.frontend.extended_objects import (
     Part,
     ShadowConfig,
     merge_parts,
-    object_centre,
     row_profile,
 )
-from slam.frontend.observation import (
-    SideScanGeometry,
-    range_bearing_from_pixels,
-    xy_cov_to_range_bearing,
-)
-from slam.types import RangeBearing
-
-
-@dataclass(frozen=True)
-class PingRecord:
-    """One side-scan ping as the windowing keeps it.
-
-    t: acquisition time, s. intensity (2S,) float32, port left (far range first).
-    slant_range (S,) m of the starboard half's samples (near to far; port mirrored).
-    altitude: measured altitude (DVL or first return), m. speed: along-track speed
-    estimate, m/s (for the along-track pixel size).
-    Ground truth, optional (scoring only; a recording has none): labels (2S,) int32
-    object id per sample (0 seabed, -1 no return, k >= 1 object k); pose_true (3,)
-    [x, y, yaw]. Without them detections carry object id 0, are not true positives and
-    are placed with ``pose_nav`` (the navigation pose, when given).
-    """
-
-    t: float
-    intensity: np.ndarray
-    slant_range: np.ndarray
-    altitude: float
-    speed: float = 1.5
-    labels: np.ndarray | None = None
-    pose_true: np.ndarray | None = None
-    pose_nav: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
-class Detection:
-    """One side-scan detection tied to the ping of its centroid."""
-
-    t: float
-    ping: int
-    side: str  # "port" | "starboard"
-    slant_range: float
-    ground_range: float
-    area_px: int
-    observation: RangeBearing
-    object_id: int  # majority simulator label of the region (0 = none) - scoring only
-    true_positive: bool
-    world_xy_true_pose: np.ndarray  # placed with the true pose (else the nav pose, else NaN)
-
-
-@dataclass
-class WindowResult:
-    """One segmented window: its image, class-id overlay and detections owned here."""
-
-    start: int
-    image: np.ndarray
-    overlay: np.ndarray
-    detections: list[Detection]
-    horizon_t: float  # every ping at or before this time is final (no later detections)
-    fp_pixels: int = 0
-    bg_pixels: int = 0
-    imaged_ids: set = field(default_factory=set)
+from slam.frontend.sidescan_detection import object_detection
+from slam.frontend.sidescan_records import Detection, PingRecord, WindowResult
 
 
 class SidescanProcessor:
@@ -144,6 +74,7 @@ class SidescanProcessor:
         shadow: Callable[[np.ndarray], np.ndarray] | None = None,
         shadow_config: ShadowConfig = SHADOW,
         max_object_pings: int | None = None,
+        require_shadow: bool = False,
     ) -> None:
         if not 1 <= hop <= window:
             raise ValueError(f"hop must be in [1, window={window}], got {hop}")
@@ -171,10 +102,22 @@ class SidescanProcessor:
         # objects' shadows give their centres; None: highlights only
         self.shadow = shadow
         self.shadow_config = shadow_config
+        # recorded data: an object standing proud of the seabed casts a shadow; a
+        # highlight without one (bright sediment, a lit rim of a larger object whose
+        # shadow lies beyond shadow_config.max_gap_m) is no repeatable point landmark
+        if require_shadow and shadow is None:
+            raise ValueError("require_shadow needs the shadow callable (extended objects)")
+        self.require_shadow = bool(require_shadow)
         # an object cut by the window's trailing edge is held for the next window until
         # it spans this many pings (default 3 windows)
         self.max_object_pings = int(max_object_pings or 3 * self.window)
         self._held: list[Part] = []
+        # objects emitted by the last window, (port, pixels): the next window skips
+        # the same object seen again across the ownership boundary
+        self._claimed: list[tuple[bool, np.ndarray]] = []
+        # ownership slack, pings: an object's centroid moves a little between two
+        # windows' segmentations, so each window claims this far past its owned rows
+        self._slack = max(2, self.hop // 20)
         self._long: list[tuple[bool, tuple[int, int, int, int]]] = []
         self.pings: list[PingRecord] = []
         self._next_start = 0  # start ping of the next window
@@ -245,18 +188,22 @@ class SidescanProcessor:
         # as before extended objects: only regions whose centroid this window owns, plus
         # those cut by its trailing edge (and the held ones) may merge - a region owned
         # by an earlier window must not chain its neighbours together
+        m = self._slack
         parts = [
             p
             for p in parts
-            if own_lo <= (p.pix // (2 * S)).mean() + 0.5 < own_hi
-            or (p.bbox[2] >= last and not final)
+            if (
+                own_lo - m <= (p.pix // (2 * S)).mean() + 0.5 < own_hi + m
+                or (p.bbox[2] >= last and not final)
+            )
+            and not self._seen_before(p)  # the last window decided on it
         ]
         # a held object continued by a region too long to be an object is that band's
         # first part, not an object
         held = [h for h in self._held if not _overlaps_any(h, self._long)]
         groups = self._merge(held + parts, rate)
         self._held = []
-        out, keep = [], []
+        out, keep, claimed = [], [], []
         for grp in groups:
             obj = merge_parts(grp, S)
             span = obj.bbox[2] - obj.bbox[0]
@@ -266,12 +213,13 @@ class SidescanProcessor:
             continued = any(id(p) in held_ids for p in grp)
             row = float((obj.pix // (2 * S)).mean())
             k = round(row)
-            if k >= own_hi and not final:  # a later window owns it: hold what was held
+            if k >= own_hi + m and not final:  # a later window owns it: hold what was held
                 if continued:
                     self._held.append(obj)
                 continue
-            if k < own_lo and not continued:  # an earlier window owned it
+            if k < own_lo - m and not continued:  # an earlier window owned it
                 continue
+            claimed.append((obj.port, obj.pix))
             col = float((obj.pix % (2 * S)).mean())
             if edge is not None and a <= k < last:
                 if edge[k - a, min(round(col), img.shape[1] - 1)]:
@@ -281,86 +229,38 @@ class SidescanProcessor:
             if self._too_long(span, obj.ground, first.speed, rate):
                 continue
             keep.append((obj, row, col))
+        self._claimed = claimed
         mirrored = self._mirrored([(row, col) for _, row, col in keep], S)
         for (obj, row, col), twin in zip(keep, mirrored):
             if twin:  # its mirror across nadir: the first-return rim, not an object
                 continue
-            det = self._detection(obj, row, col, S, rate)
+            det = object_detection(
+                obj,
+                row,
+                col,
+                S,
+                rate,
+                self.pings,
+                use_shadow=self.shadow is not None,
+                require_shadow=self.require_shadow,
+                altitude_sigma=self.altitude_sigma,
+                along_track_beamwidth_deg=self.along_track_beamwidth_deg,
+                view_bias=self.view_bias,
+                tp_fraction=self.tp_fraction,
+            )
             if det is not None:
                 out.append(det)
         out.sort(key=lambda d: (d.t, d.side, d.ground_range))
         return out
 
-    def _detection(self, obj: Part, row: float, col: float, S: int, rate: float):
-        """The Detection of one object: its centre from highlight and shadow
-        (slam.frontend.extended_objects) when it casts one, else its highlight's
-        centroid with the view-dependent term; None in the water column."""
-        k = round(row)
-        p = self.pings[k]
-        bin_w = float(np.median(np.diff(p.slant_range))) if len(p.slant_range) > 1 else 0.05
-        spacing = max(p.speed, 0.05) / rate
-        alts = np.array([self.pings[int(i)].altitude for i in obj.rows])
-        centre = (
-            object_centre(
-                obj,
-                p.slant_range,
-                alts,
-                bin_w,
-                altitude_sigma=self.altitude_sigma,
-                end_sigma_rows=max(
-                    1.0,
-                    float(0.5 * sum(obj.ground) * np.radians(self.along_track_beamwidth_deg))
-                    / spacing,
-                ),
-            )
-            if self.shadow is not None
-            else None
-        )
-        if centre is not None:
-            k = min(max(round(centre.row), 0), len(self.pings) - 1)
-            p = self.pings[k]
-            sign = 1.0 if obj.port else -1.0
-            x = np.array([(centre.row - k) * spacing])
-            y = np.array([sign * centre.ground])
-            rho, brg, cov = xy_cov_to_range_bearing(
-                x, y, np.array([centre.var_rows * spacing**2]), np.array([centre.var_ground])
-            )
-            rng_, R = rho, cov[0]
-        else:
-            ext = (obj.bbox[2] - obj.bbox[0], obj.bbox[3] - obj.bbox[1])
-            geom = SideScanGeometry(
-                slant_range_max=float(p.slant_range[-1] + bin_w / 2),
-                samples_per_side=S,
-                altitude=max(float(p.altitude), 0.0),
-                along_track_spacing=spacing,
-                slant_range_min=max(float(p.slant_range[0] - bin_w / 2), 0.0),
-                along_track_beamwidth_deg=self.along_track_beamwidth_deg,
-                altitude_sigma=self.altitude_sigma,
-            )
-            try:
-                rng_, brg, cov = range_bearing_from_pixels(
-                    geom, np.array([[row - k, col]]), np.array([ext]), ref_row=0.0
-                )
-            except ValueError:  # centroid in the water column (no ground range)
-                return None
-            R = cov[0].copy()
-            if self.view_bias > 0:  # the highlight's place on the object depends on the view
-                R[0, 0] += (self.view_bias * ext[1] * bin_w) ** 2
-                R[1, 1] += (self.view_bias * ext[0] * spacing / max(rng_[0], 1.0)) ** 2
-        obs = RangeBearing([rng_[0], brg[0]], R, t=p.t, meta={"object_id": obj.oid, "ping": k})
-        x0, y0, yaw = _placing_pose(p)
-        wxy = np.array([x0 + rng_[0] * np.cos(yaw + brg[0]), y0 + rng_[0] * np.sin(yaw + brg[0])])
-        return Detection(
-            p.t,
-            k,
-            "port" if obj.port else "starboard",
-            float(np.hypot(rng_[0], p.altitude)),
-            float(rng_[0]),
-            obj.area_px,
-            obs,
-            obj.oid,
-            obj.frac >= self.tp_fraction,
-            wxy,
+    def _seen_before(self, part: Part) -> bool:
+        """True when the last window decided on this region: one of the objects it
+        claimed, on the same side, shares more than half of the smaller one's pixels."""
+        return any(
+            port == part.port
+            and np.intersect1d(pix, part.pix, assume_unique=True).size
+            > 0.5 * min(pix.size, part.pix.size)
+            for port, pix in self._claimed
         )
 
     def _too_long(self, rows: int, ground: tuple[float, float], speed: float, rate: float) -> bool:
@@ -485,12 +385,3 @@ def _overlaps_any(part: Part, boxes: list[tuple[bool, tuple[int, int, int, int]]
         port == part.port and r0 < b[2] and b[0] < r1 and c0 < b[3] and b[1] < c1
         for port, b in boxes
     )
-
-
-def _placing_pose(p: PingRecord) -> np.ndarray:
-    """The pose a detection is placed with: true (scoring), else navigation, else NaN."""
-    if p.pose_true is not None:
-        return np.asarray(p.pose_true, float)
-    if p.pose_nav is not None:
-        return np.asarray(p.pose_nav, float)
-    return np.full(3, np.nan)

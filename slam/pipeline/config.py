@@ -53,7 +53,10 @@ class PipelineConfig:
     of the first return on recorded data is not an object.
     extended_objects: side-scan objects are located at their centres from highlight and
     shadow and assembled across windows (slam.frontend.extended_objects); False: at
-    their highlight's centroid.
+    their highlight's centroid. require_shadow: side-scan objects without a shadow on
+    ``ShadowConfig.min_shadow_rows`` of their rows give no detection (recorded data: an
+    object standing proud of the seabed casts one; bright sediment and the lit rim of a
+    larger object whose shadow lies farther than ``ShadowConfig.max_gap_m`` do not).
     """
 
     method: str = "improved-otsu"
@@ -74,6 +77,7 @@ class PipelineConfig:
     pose0_sigma_yaw_deg: float = 0.5
     drop_first_return_edge: bool = False
     extended_objects: bool = True
+    require_shadow: bool = False
 
     def __post_init__(self) -> None:
         if not 1 <= self.hop_pings <= self.window_pings:
@@ -118,7 +122,8 @@ class PipelineConfig:
 #: (MIRA's two exponentials do not follow the bright band beyond the first return of the
 #: Scotsman recording), a ground-area speckle filter, single regions longer than twice the
 #: association gate (2 × 3 m) dropped (their centroid moves with the view: not a point
-#: landmark), the navigation's own speed, a start pose known to 1 cm
+#: landmark), objects without a shadow dropped, the navigation's own speed, a start pose
+#: known to 1 cm
 REAL_SIDESCAN = replace(
     PipelineConfig(),
     normalization="column-median",
@@ -127,6 +132,7 @@ REAL_SIDESCAN = replace(
     min_speed_mps=0.0,
     pose0_var_xy_m2=1e-4,
     drop_first_return_edge=True,
+    require_shadow=True,
 )
 
 
@@ -174,6 +180,7 @@ def make_frontend(
                 if config.extended_objects
                 else None
             ),
+            require_shadow=config.require_shadow and config.extended_objects,
             along_track_beamwidth_deg=g.along_track_beamwidth_deg,
             class_of=class_of,
             prepare=make_sss_prepare(

@@ -2,7 +2,7 @@
 
 Separate from running: :class:`slam.pipeline.SonarSlam` never needs truth. The side-scan
 windowing scores its own windows when its pings carry labels (pixel counts in
-:class:`~slam.frontend.sidescan_windows.WindowResult`); FLS frames and MSIS scans are
+:class:`~slam.frontend.sidescan_records.WindowResult`); FLS frames and MSIS scans are
 scored here with :func:`score_polar`. A detection is a true positive when at least
 ``tp_fraction`` of its cells carry an object id.
 """
@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from slam.frontend.polar import PolarResult
-from slam.frontend.sidescan_windows import Detection
+from slam.frontend.sidescan_records import Detection
 from slam.pipeline.sonar_slam import FrameOutput
 
 

@@ -27,12 +27,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from slam.frontend.polar import PolarFrontend, PolarResult
-from slam.frontend.sidescan_windows import (
-    Detection,
-    PingRecord,
-    SidescanProcessor,
-    WindowResult,
-)
+from slam.frontend.sidescan_records import Detection, PingRecord, WindowResult
+from slam.frontend.sidescan_windows import SidescanProcessor
 from slam.pipeline.config import Frontend, PipelineConfig
 from slam.pipeline.frame import SonarFrame
 from slam.pipeline.lagged import LaggedSlam, apply_increment

@@ -28,18 +28,22 @@ R_MAX, S, H, DT, V = 30.0, 400, 5.0, 0.1, 1.0
 TARGET_PING, TARGET_G0, TARGET_G1, SHADOW_G1 = 150, 12.0, 13.5, 20.0
 
 
-def synthetic_recording(rng: np.random.Generator, pings: int = 300) -> Waterfall:
+def synthetic_recording(
+    rng: np.random.Generator, pings: int = 300, target_ping: int = TARGET_PING
+) -> Waterfall:
     """Northbound straight track at 1 m/s, altitude 5 m; speckled seabed decaying with
     range; one target on starboard at ground range 12-13.5 m over pings 140-160 (2 m
-    along track) with its acoustic shadow out to 20 m. Navigation in metres."""
+    along track), +13 dB, with its acoustic shadow (-13 dB) out to 20 m. Navigation in metres."""
     slant = (np.arange(S) + 0.5) * R_MAX / S
     g = np.sqrt(np.clip(slant**2 - H**2, 0, None))
     mean = np.where(slant < H, 0.02, np.exp(-slant / 20.0))
     side = np.broadcast_to(mean, (pings, S)).copy()
     stbd = side.copy()
-    rows = slice(TARGET_PING - 10, TARGET_PING + 10)
-    stbd[rows, (g >= TARGET_G0) & (g < TARGET_G1)] *= 8.0
-    stbd[rows, (g >= TARGET_G1) & (g < SHADOW_G1)] *= 0.3
+    rows = slice(target_ping - 10, target_ping + 10)
+    stbd[rows, (g >= TARGET_G0) & (g < TARGET_G1)] *= 20.0  # +13 dB
+    # the shadow 13 dB below the seabed (the real Scotsman wreck's: median -14.5 dB re the
+    # 75th percentile of its range columns); a -5 dB dip is no shadow (ShadowConfig: 8 dB)
+    stbd[rows, (g >= TARGET_G1) & (g < SHADOW_G1)] *= 0.05
     # unit-mean 8-look speckle (gamma, shape 8): a recorder's sample averaging
     speckle = rng.gamma(8.0, 1 / 8.0, size=(pings, 2 * S))
     img = np.concatenate([side[:, ::-1], stbd], axis=1) * speckle
@@ -61,7 +65,8 @@ def synthetic_recording(rng: np.random.Generator, pings: int = 300) -> Waterfall
 def test_one_target_becomes_one_landmark_at_its_place():
     """Independent expectation: the highlight's centre lies at ground range 12.75 m to
     starboard (east, heading north) of the pose at ping 150, i.e. (12.75, 15.0) m in the
-    local frame; the landmark must be there within the highlight's half-extent."""
+    local frame; the landmark must be there within 1 m (the highlight-and-shadow centre,
+    by the similar-triangle geometry of extended_objects, is at 13.1 m)."""
     wf = synthetic_recording(np.random.default_rng(3))
     res = run_sidescan_slam(wf, SidescanSlamConfig())
     near = [d for d in res.detections if abs(d.ping - TARGET_PING) <= 12]
@@ -71,6 +76,22 @@ def test_one_target_becomes_one_landmark_at_its_place():
     assert np.hypot(*(res.landmarks[i] - [12.75, 15.0])) < 1.0
     # the SLAM track stays on the (perfect) navigation within centimetres
     assert np.max(np.hypot(*(res.est_poses[:, :2] - res.nav_poses[:, :2]).T)) < 0.05
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("target_ping", [149, 150, 151])
+def test_a_target_on_the_window_ownership_boundary_is_detected_once(seed, target_ping):
+    """Windows of 200 pings every 100: window 0 owns pings < 150, window 100 the next
+    ones. A target centred there is segmented by both windows, each seeing its centroid
+    a fraction of a ping differently; it is one object, so exactly one detection (seed 2,
+    ping 150 gave two, one per window, before the windows remembered what the last one
+    had decided)."""
+    wf = synthetic_recording(np.random.default_rng(seed), target_ping=target_ping)
+    res = run_sidescan_slam(wf, SidescanSlamConfig())
+    near = [(d.ping, d.side) for d in res.detections if abs(d.ping - target_ping) <= 12]
+    assert near == [(target_ping, "starboard")] or (
+        len(near) == 1 and abs(near[0][0] - target_ping) <= 1
+    ), near
 
 
 def test_mira_option_runs_and_bad_config_names_the_field():
@@ -145,6 +166,62 @@ def test_cli_on_the_real_scotsman_recording(shared_data, tmp_path, capsys):
     assert 1 <= len(summary["landmarks_m"]) <= 2, summary["landmarks_m"]
 
 
+@pytest.mark.parametrize("altitude", ["first_return", "nav"])
+def test_real_scotsman_wreck_is_one_landmark(shared_data, altitude):
+    """Issue 14 on the real Scotsman XTF: the wreck (starboard, visible over pings ~180-380
+    of the waterfall, ground range ~5-15 m; the source's label ping 281) is mapped as one
+    landmark, nothing else is (at most one spurious allowed; none found), and nothing
+    lies on the first-return edge, with either altitude source. Without the shadow test
+    the wreck's lit near rim (ping 230, no shadow within 3 m) is a second landmark
+    7.5 m away."""
+    from slam.io.sidescan import read_sidescan
+
+    wf = read_sidescan(shared_data / "xtf" / "scotsman-iver2.xtf").waterfall
+    res = run_sidescan_slam(wf, SidescanSlamConfig(altitude=altitude))
+    dets = [(d.ping, d.side, round(d.ground_range, 1)) for d in res.detections]
+    on_wreck = [d for d in res.detections if d.side == "starboard" and 180 <= d.ping <= 380
+                and 5.0 <= d.ground_range <= 15.0]
+    assert on_wreck and len(res.detections) - len(on_wreck) <= 1, dets
+    assert len(res.landmarks) == 1 + (len(res.detections) - len(on_wreck)), dets
+    wreck = res.landmarks[0]
+    assert all(np.hypot(*(d.world_xy_true_pose - wreck)) < 3.0 for d in on_wreck)
+    old = SidescanSlamConfig(altitude=altitude,
+                             pipeline=replace(REAL_SIDESCAN, require_shadow=False))
+    assert len(run_sidescan_slam(wf, old).landmarks) >= 2  # the rim comes back
+
+
+def wreck_recording(rng: np.random.Generator) -> Waterfall:
+    """The synthetic recording's target (pings 140-160, ground 12-13.5 m, shadow to 20 m)
+    as the far side of a larger object: its lit near rim at ground 6-7 m over pings
+    130-150 (a bulwark), seabed-level deck between, no shadow within 3 m of the rim."""
+    wf = synthetic_recording(rng)
+    img = wf.intensity.copy()
+    slant = (np.arange(S) + 0.5) * R_MAX / S
+    g = np.sqrt(np.clip(slant**2 - H**2, 0, None))
+    rim = S + np.flatnonzero((g >= 6.0) & (g < 7.0))
+    img[130:150, rim] *= 20.0
+    return wf.with_intensity(img)
+
+
+def test_a_lit_rim_without_shadow_is_no_second_landmark():
+    """Generated case of the Scotsman wreck: the rim (no shadow) and the hull with its
+    shadow are 5 m apart across track, farther than the merge radius. Without the shadow
+    test both are detected; REAL_SIDESCAN detects one, the shadowed part, at
+    the hull's highlight-and-shadow centre (similar triangles: 13.1 m; accepted 11.5-14 m)."""
+    wf = wreck_recording(np.random.default_rng(7))
+    res = run_sidescan_slam(wf, SidescanSlamConfig())
+    stbd = [d for d in res.detections if d.side == "starboard"]
+    assert len(stbd) == 1 and 11.5 <= stbd[0].ground_range <= 14.0, stbd
+    loose = SidescanSlamConfig(pipeline=replace(REAL_SIDESCAN, require_shadow=False))
+    rims = [d for d in run_sidescan_slam(wf, loose).detections
+            if d.side == "starboard" and 5.5 <= d.ground_range <= 7.5]
+    assert rims  # the rim is segmented: the shadow test, not the segmentation, drops it
+    with pytest.raises(ValueError, match="require_shadow"):
+        from slam.frontend.sidescan_windows import SidescanProcessor
+
+        SidescanProcessor(lambda im: (np.zeros(im.shape, int), []), 10, 5, require_shadow=True)
+
+
 def test_first_return_altitude_is_the_bottom_track_of_a_known_altitude():
     """The synthetic recording's seabed starts at slant range H = 5 m on every ping: the
     pipeline's altitude (water-column mask, slant-to-ground correction) is the bottom
@@ -170,7 +247,9 @@ def test_a_seabed_band_longer_than_max_extent_is_no_landmark():
     band = wf.with_intensity(img)
     port = lambda res: [d for d in res.detections if d.side == "port"]  # noqa: E731
     assert not port(run_sidescan_slam(band, SidescanSlamConfig()))
-    unlimited = SidescanSlamConfig(pipeline=replace(REAL_SIDESCAN, max_extent_m=math.inf))
+    unlimited = SidescanSlamConfig(
+        pipeline=replace(REAL_SIDESCAN, max_extent_m=math.inf, require_shadow=False)
+    )
     assert port(run_sidescan_slam(band, unlimited))
     with pytest.raises(ValueError, match="max_extent_m"):
         replace(REAL_SIDESCAN, max_extent_m=0.0)

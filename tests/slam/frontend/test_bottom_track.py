@@ -4,6 +4,9 @@ fields as independent references."""
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+
 import numpy as np
 import pytest
 
@@ -35,8 +38,14 @@ def _synthetic(rng, p=300, s=600):
         sides[1][i, j : j + 4] *= 30.0
     img = np.concatenate([sides[0][:, ::-1], sides[1]], axis=1)
     nan = np.full(p, np.nan)
-    wf = Waterfall(intensity=img, samples_per_side=s, time_s=np.arange(p) * 0.1,
-                   slant_range_m=np.full(p, s * DR), frequency_hz=nan, sound_velocity_m_s=nan)
+    wf = Waterfall(
+        intensity=img,
+        samples_per_side=s,
+        time_s=np.arange(p) * 0.1,
+        slant_range_m=np.full(p, s * DR),
+        frequency_hz=nan,
+        sound_velocity_m_s=nan,
+    )
     return wf, alt
 
 
@@ -66,8 +75,14 @@ def test_config_and_metadata_errors(rng):
         BottomTrackConfig(blank_m=-1.0)
     wf, _ = _synthetic(rng, p=20)
     nan = np.full(20, np.nan)
-    no_range = Waterfall(intensity=wf.intensity, samples_per_side=wf.samples_per_side,
-                         time_s=nan, slant_range_m=nan, frequency_hz=nan, sound_velocity_m_s=nan)
+    no_range = Waterfall(
+        intensity=wf.intensity,
+        samples_per_side=wf.samples_per_side,
+        time_s=nan,
+        slant_range_m=nan,
+        frequency_hz=nan,
+        sound_velocity_m_s=nan,
+    )
     with pytest.raises(ValueError, match="slant range"):
         track_bottom(no_range)
 
@@ -86,19 +101,82 @@ def test_scotsman_track_follows_the_xtf_altitude_field(shared_data):
     assert np.sqrt(np.mean((a - b) ** 2)) < 1.5
 
 
+@functools.lru_cache(maxsize=1)
+def _humminbird(path: str):
+    """The Humminbird recording, read once per test session (≈ 20 s)."""
+    from slam.io.sidescan import read_sidescan
+
+    return read_sidescan(path)
+
+
 @pytest.mark.shared_data
 def test_humminbird_track_follows_the_header_depth(shared_data):
     """Data README: the first return follows the unit's depth field with r = 0.93 over
     the first ~2,100 pings (independent tools); later pings jump to the multiple."""
-    from slam.io.sidescan import read_sidescan
-
-    rec = read_sidescan(shared_data / "humminbird" / "test.DAT")
+    rec = _humminbird(str(shared_data / "humminbird" / "test.DAT"))
     bt = track_bottom(rec.waterfall)
     n = 2100
     ok = bt.found[:n] & np.isfinite(rec.nav.altitude_m[:n])
     assert ok.mean() > 0.95
     r = np.corrcoef(bt.altitude_m[:n][ok], rec.nav.altitude_m[:n][ok])[0, 1]
     assert r > 0.88
+
+
+def _one_side(wf: Waterfall, port: bool) -> Waterfall:
+    """The waterfall with one side mirrored onto the other (that side's own track)."""
+    s = wf.samples_per_side
+    near_first = wf.intensity[:, :s][:, ::-1] if port else wf.intensity[:, s:]
+    img = np.concatenate([near_first[:, ::-1], near_first], axis=1)
+    return dataclasses.replace(wf, intensity=img)
+
+
+@pytest.mark.shared_data
+def test_humminbird_depth_field_is_deeper_where_both_sides_return_early(shared_data):
+    """Pings 1,000-1,400, where r against the depth field collapses: where the depth
+    field lies more than 0.5 m below the track, port alone and starboard alone give the
+    same first return (median within 2 samples): an echo at the same range on both sides
+    comes from below the sonar, not from a fish or an object off to one side, so the
+    track is right about the first return and the sounder reports a deeper bottom."""
+    rec = _humminbird(str(shared_data / "humminbird" / "test.DAT"))
+    sl = slice(1000, 1400)
+    wf = dataclasses.replace(
+        rec.waterfall,
+        intensity=rec.waterfall.intensity[sl],
+        time_s=rec.waterfall.time_s[sl],
+        slant_range_m=rec.waterfall.slant_range_m[sl],
+        frequency_hz=rec.waterfall.frequency_hz[sl],
+        sound_velocity_m_s=rec.waterfall.sound_velocity_m_s[sl],
+        nav={},
+    )
+    dr = float(np.median(wf.sample_spacing_m()))
+    both = track_bottom(wf).altitude_m
+    deeper = np.isfinite(both) & (rec.nav.altitude_m[sl] - both > 0.5)
+    assert deeper.sum() > 100
+    for port in (True, False):
+        side = track_bottom(_one_side(wf, port)).altitude_m
+        assert np.nanmedian(np.abs(side - both)[deeper]) <= 2 * dr
+
+
+def test_early_return_on_both_sides_is_the_track(rng):
+    """Analytic: a return 2.5x the water column starting 1 m nearer than the seabed (8x)
+    on both sides (an object below the sonar, as in Humminbird pings 1,000-1,400): its
+    edge (log 2.5) is weaker than the seabed's step behind it (log 3.2) but above 0.6 of
+    it, so the track follows the first return (within 2 samples), not the strongest."""
+    wf, alt = _synthetic(rng, p=120)
+    s = wf.samples_per_side
+    k = np.arange(s)[None, :]
+    rows = np.arange(40, 80)
+    raised = (k >= np.round((alt[rows] - 1.0) / DR)[:, None]) & (
+        k < np.round(alt[rows] / DR)[:, None]
+    )
+    img = wf.intensity.copy()
+    both = np.concatenate([raised[:, ::-1], raised], axis=1)
+    img[40:80] = np.where(both, img[40:80] * 2.5, img[40:80])
+    bt = track_bottom(dataclasses.replace(wf, intensity=img))
+    inner = slice(45, 75)  # away from the along-track smoothing at the ends
+    assert bt.found[inner].all()
+    assert np.percentile(np.abs(bt.altitude_m[inner] - (alt[inner] - 1.0)), 95) <= 2 * DR
+    assert np.percentile(np.abs(bt.altitude_m[90:] - alt[90:]), 95) <= 2 * DR
 
 
 def test_edge_score_equals_the_direct_window_means(rng):

@@ -9,7 +9,8 @@ import pytest
 from scipy import ndimage
 
 from slam.frontend.extended_objects import ShadowConfig, make_shadow_db
-from slam.frontend.sidescan_windows import PingRecord, SidescanProcessor
+from slam.frontend.sidescan_records import PingRecord
+from slam.frontend.sidescan_windows import SidescanProcessor
 
 S = 600
 BIN = 0.05  # m

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam.frontend.sidescan_windows import PingRecord, SidescanProcessor
+from slam.frontend.sidescan_records import PingRecord
+from slam.frontend.sidescan_windows import SidescanProcessor
 
 
 def _threshold_segment(img):

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from slam.frontend.sidescan_prepare import make_sss_prepare, no_return_mask
-from slam.frontend.sidescan_windows import PingRecord, SidescanProcessor
+from slam.frontend.sidescan_records import PingRecord
+from slam.frontend.sidescan_windows import SidescanProcessor
 
 DR_DB = 50.0  # display dynamic range of the synthetic sonar, dB
 FLOOR_DB = -20.0  # 10 log10 intensity mapped to display 0
