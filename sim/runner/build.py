@@ -86,7 +86,7 @@ def mission_for(v: VehicleSpec, swath: float) -> Mission:
     kw = {"depth": m.depth_m, "altitude": m.altitude_m}
     heading = math.radians(m.heading_deg)
     if m.type == "lawnmower":
-        return lawnmower(
+        mission = lawnmower(
             m.center,
             m.size_m[0],
             m.size_m[1],
@@ -97,6 +97,11 @@ def mission_for(v: VehicleSpec, swath: float) -> Mission:
             spacing=m.line_spacing_m,
             **kw,
         )
+        if m.tie_line:  # back to the first line's start across all lines
+            mission = replace(
+                mission, waypoints=np.vstack([mission.waypoints, mission.waypoints[:1]])
+            )
+        return mission
     if m.type == "loop":
         return loop(np.array(m.waypoints), laps=m.loops, speed=m.speed_mps, **kw)
     if m.type == "waypoints":
