@@ -117,7 +117,11 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
     """A vehicle's [frontend] and [slam] tables as the pipeline's config. The runner has
     always segmented side-scan windows without the ground-area speckle filter, so
     ``frontend.min_area_m2`` is not applied (kept so the built-in scenarios' numbers
-    hold; see docs/pipeline.md)."""
+    hold; see docs/pipeline.md). A run starts SLAM and the dead reckoner at the true
+    start pose, so SLAM's initial covariance is zero: the dead reckoner's covariance,
+    handed on in the matched odometry Q, carries all of the navigation's uncertainty (a
+    nonzero start covariance is uncertainty the errors never have: pose NEES far below
+    3 until the navigation's own dominates)."""
     fe, sl = v.frontend, v.slam
     return PipelineConfig(
         method=fe.method,
@@ -126,6 +130,8 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
         hop_pings=fe.hop_pings,
         merge_radius_m=sl.association_gate_m,
         timing=sl.timing,
+        pose0_var_xy_m2=0.0,
+        pose0_sigma_yaw_deg=0.0,
     )
 
 
@@ -245,12 +251,8 @@ def object_class_of(world):
 
 def make_pipeline(world, vs: VehicleSpec, sonars: list[SonarRuntime], rng) -> SonarSlam:
     """The vehicle's SonarSlam: a front end per sonar, the scenario's estimator at the
-    start pose (none when ``slam.estimator = "none"``). A run starts SLAM and the dead
-    reckoner at the true start pose, so SLAM's initial covariance is zero: the dead
-    reckoner's covariance, handed on in the matched odometry Q, carries all of the
-    navigation's uncertainty (a nonzero start covariance would be uncertainty the
-    errors never have: pose NEES far below 3 until the navigation's own dominates)."""
-    cfg = replace(pipeline_config(vs), pose0_var_xy_m2=0.0, pose0_sigma_yaw_deg=0.0)
+    start pose (none when ``slam.estimator = "none"``)."""
+    cfg = pipeline_config(vs)
     class_of = object_class_of(world)
     frontends = {s.spec.name: make_frontend(s.geometry, cfg, class_of=class_of) for s in sonars}
     pose0 = np.array([vs.start_position[0], vs.start_position[1], math.radians(vs.start_yaw_deg)])

@@ -39,8 +39,7 @@ def test_slam_beats_dead_reckoning_consistently(name, seed, tmp_path):
     assert res.complete
     for v in res.metrics["vehicles"].values():
         po, lm = v["pose"], v["landmarks"]
-        if name in SIDESCAN:
-            assert po["nees_in_95_interval"] >= 0.9, po
+        assert po["nees_in_95_interval"] >= 0.9, po
         if name in SIDESCAN:
             assert po["ate_m"] <= 0.5 * po["dead_reckoning_ate_m"], po
             assert lm["n_duplicated_objects"] == 0, lm
