@@ -154,7 +154,8 @@ class NavSuite:
             else None
         )
         self._yaw0 = float(self._pose_cut[2])
-        self._cov_cut = np.zeros((3, 3))  # world-frame covariance at the previous cut
+        # world-frame covariance SLAM's predict recursion has reached at the previous cut
+        self._cov_cut = np.zeros((3, 3))
 
     def poll(self, state: VehicleState) -> NavReadings:
         out = NavReadings(
@@ -181,9 +182,13 @@ class NavSuite:
         SLAM predict ``P ← F P Fᵀ + G Q Gᵀ`` that treats them as white cannot represent;
         Q is chosen so that this recursion reproduces, cut after cut, the exact
         covariance Σ(t) of the whole run's dead-reckoned pose (a never-cut copy of the
-        dead reckoner): ``Q = Gᵀ (Σ_k − F Σ_{k−1} Fᵀ) G``, its negative eigenvalues (an
-        error that shrinks again, e.g. a scale error on the way back) set to zero, which
-        keeps it conservative. Otherwise Q is the increment's own (marginal) covariance.
+        dead reckoner): ``Q = Gᵀ (Σ_k − F Σ̃_{k−1} Fᵀ) G`` with ``Σ̃`` the covariance the
+        recursion itself has reached, its negative eigenvalues (an error that shrinks
+        again, e.g. a scale error on the way back) set to zero. Then ``Σ̃_k = Σ_k`` while
+        Σ grows and ``Σ̃_k ≥ Σ_k`` (conservative) after it shrinks; differencing the true
+        Σ_{k−1} instead would add every regrowth on top of the clipped excess, inflating
+        ``Σ̃`` without bound over a run of back-and-forth lines. Otherwise Q is the
+        increment's own (marginal) covariance.
         """
         x_prev = self._pose_cut
         inc = self.dead_reckoner.increment(t)
@@ -201,7 +206,7 @@ class NavSuite:
         D = G.T @ (cov_now - F @ self._cov_cut @ F.T) @ G
         w, V = np.linalg.eigh(0.5 * (D + D.T))
         Q = (V * np.maximum(w, 0.0)) @ V.T
-        self._cov_cut = cov_now
+        self._cov_cut = F @ self._cov_cut @ F.T + G @ Q @ G.T
         return OdometryIncrement(delta=inc.delta, cov=0.5 * (Q + Q.T), t=inc.t, t_start=inc.t_start)
 
     def pose(self) -> np.ndarray:

@@ -101,7 +101,9 @@ class MissionSpec:
     (explicit waypoints), hold (station keeping). Altitude (m above seabed) or depth (m).
     ``surface_at_s``: at this time the vehicle leaves its mission and surfaces where its
     navigation puts it (GPS fixes at the surface; a fix at the end of the run anchors the
-    fleet's fused map, sim.runner.fleet)."""
+    fleet's fused map, sim.runner.fleet). ``tie_line`` (lawnmower only): after the last
+    line, fly straight back to the start of the first one — a tie line crossing every
+    line at an oblique heading, re-imaging the site and closing the loop at the start."""
 
     type: str = "lawnmower"
     speed_mps: float = 1.5
@@ -114,6 +116,7 @@ class MissionSpec:
     waypoints: tuple[tuple[float, float], ...] = ()
     loops: int = 1
     surface_at_s: float | None = None
+    tie_line: bool = False
 
 
 @dataclass(frozen=True)
@@ -431,6 +434,7 @@ def _parse_mission(d, path) -> MissionSpec:
             "waypoints",
             "loops",
             "surface_at_s",
+            "tie_line",
         ),
     )
     typ = _str(d.get("type", "lawnmower"), f"{path}.type", MISSION_TYPES)
@@ -465,7 +469,15 @@ def _parse_mission(d, path) -> MissionSpec:
         surface_at_s=None
         if d.get("surface_at_s") is None
         else _num(d["surface_at_s"], f"{path}.surface_at_s", 0.0, lo_open=True),
+        tie_line=_tie_line(d, typ, path),
     )
+
+
+def _tie_line(d, typ: str, path: str) -> bool:
+    tie = _bool(d.get("tie_line", False), f"{path}.tie_line")
+    if tie and typ != "lawnmower":
+        raise _fail(f"{path}.tie_line", tie, "true only with type = 'lawnmower'")
+    return tie
 
 
 def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:

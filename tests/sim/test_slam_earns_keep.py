@@ -7,10 +7,8 @@ chi2_2 95 % point and no duplicated landmark; ``harbour-fls`` keeps its pose NEE
 on >= 90 % of the steps. The expectation is the truth of the simulator (true poses and
 object positions) and the chi-square distribution, never the code's own output.
 
-CI: a short run of each prints and writes every one of those figures per vehicle; the
-side-scan run's pose NEES stays inside the interval on >= 90 % of the steps (the FLS
-run's does not yet: 88.5 % over 40 s, the open part of issue 12 item 3, asserted by the
-slow test only).
+CI: a short run of each prints and writes every one of those figures per vehicle, and
+its pose NEES stays inside the interval on >= 90 % of the steps.
 """
 
 from __future__ import annotations
@@ -39,8 +37,7 @@ def test_slam_beats_dead_reckoning_consistently(name, seed, tmp_path):
     assert res.complete
     for v in res.metrics["vehicles"].values():
         po, lm = v["pose"], v["landmarks"]
-        if name in SIDESCAN:
-            assert po["nees_in_95_interval"] >= 0.9, po
+        assert po["nees_in_95_interval"] >= 0.9, po
         if name in SIDESCAN:
             assert po["ate_m"] <= 0.5 * po["dead_reckoning_ate_m"], po
             assert lm["n_duplicated_objects"] == 0, lm
@@ -77,5 +74,4 @@ def test_short_run_prints_and_writes_slam_and_dead_reckoning(name, duration, ext
             "duplicated",
         ):
             assert word in line, (word, line)
-        if name in SIDESCAN:
-            assert po["nees_in_95_interval"] >= 0.9, po
+        assert po["nees_in_95_interval"] >= 0.9, po

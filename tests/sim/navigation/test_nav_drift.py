@@ -124,6 +124,34 @@ def test_scale_error_drift_and_its_composed_covariance_closed_form(matched):
     assert var_x == pytest.approx(expected, rel=1e-6)
 
 
+def test_matched_covariance_after_a_shrinking_error_is_not_added_again():
+    """Out and back along x (yaw 0, reversing) five times 30 m, only a DVL scale error
+    s: the dead-reckoned error is s · x(t), its variance σ_s² x² shrinks to 0 at every
+    return. Composing the clipped matched Q as SLAM does gives at each cut max over the
+    past of σ_s² x² (conservative, never below the truth) — σ_s² d² at the last far
+    end, not 3 σ_s² d² (each outward leg's growth added again)."""
+    sigma_s, u, hz, leg_n = 0.004, 1.5, 20.0, 400
+    xs = np.concatenate([np.arange(leg_n) * u / hz, leg_n * u / hz - np.arange(leg_n) * u / hz])
+    xs = np.concatenate([xs, xs, np.arange(leg_n + 1) * u / hz])
+    vs = np.where(np.diff(xs, append=np.inf) >= 0, u, -u)
+    states = [_state(t=k / hz, x=x, v=(v, 0.0, 0.0)) for k, (x, v) in enumerate(zip(xs, vs))]
+    nav = NavSuite(
+        _scale_only_suite(sigma_s, True),
+        np.random.default_rng(2),
+        initial_velocity_body=states[0].velocity_body,
+    )
+    x, var_x, x_max = 0.0, 0.0, 0.0
+    for k, st in enumerate(states):
+        nav.poll(st)
+        if k and k % 4 == 0:
+            inc = nav.odometry(st.t)
+            x += inc.delta[0]
+            var_x += inc.cov[0, 0]
+            x_max = max(x_max, abs(x))
+            assert var_x >= (sigma_s * x) ** 2 * (1 - 1e-6)
+    assert var_x == pytest.approx((sigma_s * x_max) ** 2, rel=1e-3)
+
+
 def test_matched_covariance_keeps_the_lawnmower_drift_consistent():
     """MEMS AHRS + DVL (alister9 payload) on a short lawnmower, 6 seeds: the final-pose
     NEES against the composed matched covariance averages below the χ²₃ 99.9 % point of

@@ -192,3 +192,19 @@ def test_surface_at_s_must_be_a_positive_time(base):
     assert "vehicles[0].mission.surface_at_s" in msg and "-5.0" in msg and "> 0" in msg
     base["vehicles"][0]["mission"]["surface_at_s"] = 30.0
     assert parse_scenario(base).vehicles[0].mission.surface_at_s == 30.0
+
+
+def test_tie_line_only_on_a_lawnmower_and_closes_at_the_start(base):
+    from sim.runner.build import mission_for
+
+    m = base["vehicles"][0]["mission"]
+    m["tie_line"] = "yes"
+    assert "vehicles[0].mission.tie_line" in _err(base) and "true or false" in _err(base)
+    m.update(tie_line=True, type="loop", waypoints=[[0, 0], [10, 0]])
+    msg = _err(base)
+    assert "vehicles[0].mission.tie_line" in msg and "lawnmower" in msg
+    m.update(type="lawnmower", tie_line=True, size_m=[100.0, 40.0], line_spacing_m=20.0)
+    wps = mission_for(parse_scenario(base).vehicles[0], 50.0).waypoints
+    # three lines of 100 m at y = -20, 0, 20 (centre 0, 0), then back to the first start
+    assert len(wps) == 7 and wps[-1].tolist() == wps[0].tolist() == [-50.0, -20.0]
+    assert wps[-2].tolist() == [50.0, 20.0]
