@@ -27,6 +27,7 @@ from sim.world import (
 )
 from sim.world import VehicleSpec as WorldVehicleSpec
 from slam.pipeline import (
+    REAL_SIDESCAN,
     DetectionTally,
     EstimatorSpec,
     PipelineConfig,
@@ -112,9 +113,13 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
     """A vehicle's [frontend] and [slam] tables as the pipeline's config. The runner has
     always segmented side-scan windows without the ground-area speckle filter, so
     ``frontend.min_area_m2`` is not applied (kept so the built-in scenarios' numbers
-    hold; see docs/pipeline.md)."""
+    hold; see docs/pipeline.md). ``frontend.profile = "real-sidescan"`` segments the
+    side-scan like recorded data (slam.pipeline.REAL_SIDESCAN: column-median
+    normalization, the ``min_area_m2`` speckle filter, single regions longer than
+    ``max_extent_m`` dropped as seabed patches, the first-return edge rules): one front
+    end for a real recording and for the calibrated presets' textured images."""
     fe, sl = v.frontend, v.slam
-    return PipelineConfig(
+    cfg = PipelineConfig(
         method=fe.method,
         preset=fe.preset,
         window_pings=fe.window_pings,
@@ -122,6 +127,15 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
         merge_radius_m=sl.association_gate_m,
         timing=sl.timing,
     )
+    if fe.profile == "real-sidescan":
+        cfg = replace(
+            cfg,
+            normalization=REAL_SIDESCAN.normalization,
+            min_area_m2=fe.min_area_m2,
+            max_extent_m=REAL_SIDESCAN.max_extent_m,
+            drop_first_return_edge=REAL_SIDESCAN.drop_first_return_edge,
+        )
+    return cfg
 
 
 @dataclass

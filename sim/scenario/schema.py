@@ -204,6 +204,14 @@ class FrontendSpec:
     window_pings: int = 200
     hop_pings: int = 100
     min_area_m2: float = 0.15
+    profile: str = "simulated"
+
+
+#: [frontend] profile: "simulated" = the pipeline's defaults (MIRA normalization, no
+#: area or extent filter); "real-sidescan" = the recorded-data front end of
+#: ``undersea sss-slam`` (slam.pipeline.REAL_SIDESCAN's normalization, min_area_m2,
+#: max_extent_m and first-return-edge rules), for images as textured as a real recording
+FRONTEND_PROFILES = ("simulated", "real-sidescan")
 
 
 @dataclass(frozen=True)
@@ -470,7 +478,9 @@ def _parse_mission(d, path) -> MissionSpec:
 
 def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:
     d = _table(d, path)
-    _check_keys(d, path, ("method", "preset", "window_pings", "hop_pings", "min_area_m2"))
+    _check_keys(
+        d, path, ("method", "preset", "window_pings", "hop_pings", "min_area_m2", "profile")
+    )
     fe = FrontendSpec(
         method=_str(d.get("method", base.method), f"{path}.method", FRONTEND_METHODS),
         preset=_str(d.get("preset", base.preset), f"{path}.preset", FRONTEND_PRESETS),
@@ -479,6 +489,7 @@ def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:
         ),
         hop_pings=_int(d.get("hop_pings", base.hop_pings), f"{path}.hop_pings", 1, 10000),
         min_area_m2=_num(d.get("min_area_m2", base.min_area_m2), f"{path}.min_area_m2", 0.0),
+        profile=_str(d.get("profile", base.profile), f"{path}.profile", FRONTEND_PROFILES),
     )
     if fe.hop_pings > fe.window_pings:
         raise _fail(
