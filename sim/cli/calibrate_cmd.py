@@ -31,6 +31,7 @@ HELP = "fit a side-scan preset's realism levels to a real recording; write a pre
 RAYCAST_PARAMETERS = (
     Parameter("receiver_gain_db", -30.0, 20.0, 0.0),  # gain → saturation, headroom
     Parameter("texture_db", 0.0, 10.0, 1.5),  # sediment texture → speckle CV, dB std
+    Parameter("texture_scale_m", 0.2, 5.0, 0.8, log=True),  # its size → texture across patches
     Parameter("range_cell_m", 0.005, 0.2, 0.02, log=True),  # speckle correlation in range
     Parameter("volume_sv_db", -120.0, -40.0, -80.0),  # reverberation → water column level
 )
@@ -248,6 +249,7 @@ def run(args: argparse.Namespace) -> int:
             max_evaluations=args.max_evaluations,
             good_enough=args.good_enough,
             model_config=model_cfg,
+            fit_tile_texture=args.model != "statistical",
         )
         if hasattr(simulate, "gain_for"):  # the solved gain belongs to the preset too
             gain = simulate.gain_for(result.values)

@@ -95,3 +95,28 @@ def test_model_runs_stay_within_the_budget_and_stop_when_good_enough():
     own = waterfall_statistics(model(start), MODEL_STATS)
     r = calibrate(counted, own, PARAMETERS, good_enough=0.8, model_config=MODEL_STATS)
     assert len(calls) == 1 and r.evaluations == 1 and r.values == pytest.approx(start)
+
+
+def test_fit_with_tile_texture_meets_it_too():
+    """With ``fit_tile_texture`` the seabed texture at the patch scale is a convergence
+    feature: the converged fit has it within 1 dB of the target's as well."""
+    truth = dict(
+        gain_db=-9.0,
+        texture_db=3.0,
+        corr_range=0.5,
+        corr_ping=0.4,
+        water_column_db=-40.0,
+        looks=2.0,
+    )
+    target = waterfall_statistics(StatisticalSideScan(seed=1, **SIZE)(truth))
+    r = calibrate(
+        StatisticalSideScan(seed=0, **SIZE),
+        target,
+        PARAMETERS,
+        model_config=MODEL_STATS,
+        fit_tile_texture=True,
+    )
+    for side in ("port", "starboard"):
+        assert abs(r.residuals[f"texture_tile_db.{side}"]) <= 1.0
+        sim, real = r.after.sides()[side], target.sides()[side]
+        assert abs(sim.texture_tile_db - real.texture_tile_db) <= 1.0
