@@ -117,7 +117,9 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
     side-scan like recorded data (slam.pipeline.REAL_SIDESCAN: column-median
     normalization, the ``min_area_m2`` speckle filter, single regions longer than
     ``max_extent_m`` dropped as seabed patches, the first-return edge rules): one front
-    end for a real recording and for the calibrated presets' textured images."""
+    end for a real recording and for the calibrated presets' textured images.
+    ``frontend.max_extent_m`` (m) replaces the profile's extent rule (a scenario with
+    objects longer than 6 m keeps them)."""
     fe, sl = v.frontend, v.slam
     cfg = PipelineConfig(
         method=fe.method,
@@ -135,6 +137,8 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
             max_extent_m=REAL_SIDESCAN.max_extent_m,
             drop_first_return_edge=REAL_SIDESCAN.drop_first_return_edge,
         )
+    if fe.max_extent_m is not None:
+        cfg = replace(cfg, max_extent_m=fe.max_extent_m)
     return cfg
 
 

@@ -205,6 +205,7 @@ class FrontendSpec:
     hop_pings: int = 100
     min_area_m2: float = 0.15
     profile: str = "simulated"
+    max_extent_m: float | None = None  # None: the profile's (inf, or REAL_SIDESCAN's 6 m)
 
 
 #: [frontend] profile: "simulated" = the pipeline's defaults (MIRA normalization, no
@@ -479,7 +480,9 @@ def _parse_mission(d, path) -> MissionSpec:
 def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:
     d = _table(d, path)
     _check_keys(
-        d, path, ("method", "preset", "window_pings", "hop_pings", "min_area_m2", "profile")
+        d,
+        path,
+        ("method", "preset", "window_pings", "hop_pings", "min_area_m2", "profile", "max_extent_m"),
     )
     fe = FrontendSpec(
         method=_str(d.get("method", base.method), f"{path}.method", FRONTEND_METHODS),
@@ -490,6 +493,11 @@ def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:
         hop_pings=_int(d.get("hop_pings", base.hop_pings), f"{path}.hop_pings", 1, 10000),
         min_area_m2=_num(d.get("min_area_m2", base.min_area_m2), f"{path}.min_area_m2", 0.0),
         profile=_str(d.get("profile", base.profile), f"{path}.profile", FRONTEND_PROFILES),
+        max_extent_m=(
+            base.max_extent_m
+            if d.get("max_extent_m") is None
+            else _num(d["max_extent_m"], f"{path}.max_extent_m", 0.0, lo_open=True)
+        ),
     )
     if fe.hop_pings > fe.window_pings:
         raise _fail(

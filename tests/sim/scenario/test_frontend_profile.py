@@ -45,3 +45,12 @@ def test_real_sidescan_profile_takes_the_recorded_data_front_end():
 def test_unknown_profile_names_the_field():
     with pytest.raises(ScenarioError, match=r"frontend\.profile"):
         _vehicle("recorded")
+
+
+def test_max_extent_overrides_the_profile_and_is_validated():
+    d = load_scenario_dict("dense-loop")
+    d.setdefault("frontend", {}).update(profile="real-sidescan", max_extent_m=25.0)
+    assert pipeline_config(parse_scenario(d).vehicles[0]).max_extent_m == 25.0
+    d["frontend"]["max_extent_m"] = -1.0
+    with pytest.raises(ScenarioError, match=r"frontend\.max_extent_m"):
+        parse_scenario(d)
