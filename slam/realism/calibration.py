@@ -198,6 +198,7 @@ def calibrate(
     diff_step: float = 0.03,
     model_config: RealismConfig | None = None,
     fit_tile_texture: bool = False,
+    model_first_return: float | None = None,
 ) -> CalibrationResult:
     """Fit ``parameters`` of ``simulate`` to the ``target`` statistics.
 
@@ -207,7 +208,9 @@ def calibrate(
     patch scale (``texture_tile_db``, within 1 dB) is a convergence feature too — for a
     model whose texture level and size are free (the ray-cast survey), so the texture
     that gives the in-patch statistics is not painted stronger across patches than the
-    recording's.
+    recording's. ``model_first_return``: the model images' first bottom return (sample
+    index, every ping) instead of the detector — for a model whose water column is not
+    darker than its seabed (recreational displays), flown at a known altitude.
 
     Converged means every feature within ``max_residual`` tolerances (issue 11: every row
     of the table within its tolerance). ``max_evaluations`` bounds the model runs in all
@@ -235,7 +238,11 @@ def calibrate(
             if len(cache) >= max_evaluations:
                 raise _Budget
             try:
-                st = waterfall_statistics(simulate(values_of(np.asarray(key))), model_config)
+                img = simulate(values_of(np.asarray(key)))
+                fr = None
+                if model_first_return is not None:
+                    fr = np.full(np.shape(img)[0], float(model_first_return))
+                st = waterfall_statistics(img, model_config, first_return=fr)
             except ValueError:
                 cache[key] = (failed, None, {})
             else:
