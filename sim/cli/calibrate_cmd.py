@@ -31,6 +31,7 @@ HELP = "fit a side-scan preset's realism levels to a real recording; write a pre
 RAYCAST_PARAMETERS = (
     Parameter("receiver_gain_db", -30.0, 20.0, 0.0),  # gain → saturation, headroom
     Parameter("texture_db", 0.0, 10.0, 1.5),  # sediment texture → speckle CV, dB std
+    Parameter("texture_scale_m", 0.2, 5.0, 0.8, log=True),  # its size → texture across patches
     Parameter("range_cell_m", 0.005, 0.2, 0.02, log=True),  # speckle correlation in range
     Parameter("volume_sv_db", -120.0, -40.0, -80.0),  # reverberation → water column level
 )
@@ -217,7 +218,11 @@ def _held_out(args, simulate, values, rep_rec, report, model_cfg):
         return float("nan"), compare(waterfall_statistics(simulate(values), model_cfg), report)
     altitude, _ = survey_geometry(rep_rec, args.altitude, args.max_range)
     again = type(survey)(replace(spec, altitude_m=altitude))
-    return altitude, compare(waterfall_statistics(again(values), model_cfg), report)
+    img = again(values)
+    fr = None
+    if args.bottom == "altitude":  # as in the fit: the survey's known altitude
+        fr = np.full(img.shape[0], altitude / (spec.max_range_m / spec.samples_per_side))
+    return altitude, compare(waterfall_statistics(img, model_cfg, first_return=fr), report)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -248,6 +253,12 @@ def run(args: argparse.Namespace) -> int:
             max_evaluations=args.max_evaluations,
             good_enough=args.good_enough,
             model_config=model_cfg,
+            fit_tile_texture=args.model != "statistical",
+            model_first_return=(
+                altitude / (max_range / (rec.intensity.shape[1] // 2))
+                if args.bottom == "altitude" and args.model != "statistical"
+                else None
+            ),
         )
         if hasattr(simulate, "gain_for"):  # the solved gain belongs to the preset too
             gain = simulate.gain_for(result.values)

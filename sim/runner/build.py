@@ -27,6 +27,7 @@ from sim.world import (
 )
 from sim.world import VehicleSpec as WorldVehicleSpec
 from slam.pipeline import (
+    REAL_SIDESCAN,
     DetectionTally,
     EstimatorSpec,
     PipelineConfig,
@@ -117,7 +118,13 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
     """A vehicle's [frontend] and [slam] tables as the pipeline's config. The runner has
     always segmented side-scan windows without the ground-area speckle filter, so
     ``frontend.min_area_m2`` is not applied (kept so the built-in scenarios' numbers
-    hold; see docs/pipeline.md).
+    hold; see docs/pipeline.md). ``frontend.profile = "real-sidescan"`` segments the
+    side-scan like recorded data (slam.pipeline.REAL_SIDESCAN: column-median
+    normalization, the ``min_area_m2`` speckle filter, single regions longer than
+    ``max_extent_m`` dropped as seabed patches, the first-return edge rules, objects
+    without a shadow dropped): one front end for a real recording and for the calibrated
+    presets' textured images. ``frontend.max_extent_m`` (m) replaces the profile's
+    extent rule (a scenario with objects longer than 6 m keeps them).
 
     Start covariance: a run starts SLAM and the dead reckoner at the true start pose, and
     the dead reckoner's covariance, handed on in the matched odometry Q, carries the
@@ -130,7 +137,7 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
     have (pose NEES far below 3 until the navigation's own dominates)."""
     fe, sl = v.frontend, v.slam
     launch_lag = v.mission.speed_mps / (2.0 * v.nav.suite_config(only="dvl").rate_hz)
-    return PipelineConfig(
+    cfg = PipelineConfig(
         method=fe.method,
         preset=fe.preset,
         window_pings=fe.window_pings,
@@ -140,6 +147,18 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
         pose0_var_xy_m2=launch_lag**2,
         pose0_sigma_yaw_deg=0.0,
     )
+    if fe.profile == "real-sidescan":
+        cfg = replace(
+            cfg,
+            normalization=REAL_SIDESCAN.normalization,
+            min_area_m2=fe.min_area_m2,
+            max_extent_m=REAL_SIDESCAN.max_extent_m,
+            drop_first_return_edge=REAL_SIDESCAN.drop_first_return_edge,
+            require_shadow=REAL_SIDESCAN.require_shadow,
+        )
+    if fe.max_extent_m is not None:
+        cfg = replace(cfg, max_extent_m=fe.max_extent_m)
+    return cfg
 
 
 @dataclass

@@ -207,6 +207,15 @@ class FrontendSpec:
     window_pings: int = 200
     hop_pings: int = 100
     min_area_m2: float = 0.15
+    profile: str = "simulated"
+    max_extent_m: float | None = None  # None: the profile's (inf, or REAL_SIDESCAN's 6 m)
+
+
+#: [frontend] profile: "simulated" = the pipeline's defaults (MIRA normalization, no
+#: area or extent filter); "real-sidescan" = the recorded-data front end of
+#: ``undersea sss-slam`` (slam.pipeline.REAL_SIDESCAN's normalization, min_area_m2,
+#: max_extent_m and first-return-edge rules), for images as textured as a real recording
+FRONTEND_PROFILES = ("simulated", "real-sidescan")
 
 
 @dataclass(frozen=True)
@@ -482,7 +491,11 @@ def _tie_line(d, typ: str, path: str) -> bool:
 
 def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:
     d = _table(d, path)
-    _check_keys(d, path, ("method", "preset", "window_pings", "hop_pings", "min_area_m2"))
+    _check_keys(
+        d,
+        path,
+        ("method", "preset", "window_pings", "hop_pings", "min_area_m2", "profile", "max_extent_m"),
+    )
     fe = FrontendSpec(
         method=_str(d.get("method", base.method), f"{path}.method", FRONTEND_METHODS),
         preset=_str(d.get("preset", base.preset), f"{path}.preset", FRONTEND_PRESETS),
@@ -491,6 +504,12 @@ def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:
         ),
         hop_pings=_int(d.get("hop_pings", base.hop_pings), f"{path}.hop_pings", 1, 10000),
         min_area_m2=_num(d.get("min_area_m2", base.min_area_m2), f"{path}.min_area_m2", 0.0),
+        profile=_str(d.get("profile", base.profile), f"{path}.profile", FRONTEND_PROFILES),
+        max_extent_m=(
+            base.max_extent_m
+            if d.get("max_extent_m") is None
+            else _num(d["max_extent_m"], f"{path}.max_extent_m", 0.0, lo_open=True)
+        ),
     )
     if fe.hop_pings > fe.window_pings:
         raise _fail(

@@ -14,7 +14,8 @@ Objective: the mean over the features below, on each side, of the squared residu
 units of the issue-11 tolerance* (1 = at the edge of the tolerance): speckle CV (relative), dB std, lag-1 range, lag-1 pings, water-column level,
 dynamic range, log10(saturation + SATURATION_FLOOR) (factor 2 ↔ log10 2; the floor keeps
 the residual smooth where a model barely clips), the texture (LBP) JS
-distance to the recording's histogram over 0.1, and — only to guide the gain where a model
+distance to the recording's histogram over 0.1, the seabed texture at the patch scale
+(``texture_tile_db``, 1-dB units; not an issue-11 row), and — only to guide the gain where a model
 does not clip yet — the headroom (clip level re P99, dB) in 1-dB units. A model call that fails (``ValueError``: no seabed
 in the simulated image, …) costs ``FAILED_LOSS``.
 """
@@ -48,11 +49,27 @@ FEATURES = (
 #: headroom (clip re P99, 1-dB units) only guides the gain where nothing clips yet.
 CONVERGENCE_FEATURES = FEATURES[:-1]
 HEADROOM_TOLERANCE_DB = 1.0
+#: tolerance of the seabed texture at the patch scale (statistics.tile_texture_db), dB:
+#: not an issue-11 row; fitted so the texture that gives the in-patch speckle statistics
+#: is not painted stronger across patches than the recording's (sediment blobs)
+TEXTURE_TILE_TOLERANCE_DB = 1.0
 SIDES = ("port", "starboard")
 #: residual keys: every convergence feature on both sides, then the guides.
 RESIDUAL_KEYS = tuple(f"{k}.{s}" for k in CONVERGENCE_FEATURES for s in SIDES) + tuple(
     f"headroom_db.{s}" for s in SIDES
 )
+#: the optional convergence feature of ``calibrate(..., fit_tile_texture=True)``
+TILE_FEATURE = "texture_tile_db"
+
+
+def residual_keys(fit_tile_texture: bool = False) -> tuple[tuple[str, ...], int]:
+    """(residual keys, how many of them are convergence features), the seabed texture at
+    the patch scale among them when ``fit_tile_texture``."""
+    if not fit_tile_texture:
+        return RESIDUAL_KEYS, 2 * len(CONVERGENCE_FEATURES)
+    conv = (*CONVERGENCE_FEATURES, TILE_FEATURE)
+    keys = tuple(f"{k}.{s}" for k in conv for s in SIDES)
+    return keys + tuple(f"headroom_db.{s}" for s in SIDES), 2 * len(conv)
 
 
 class _Budget(Exception):
@@ -117,18 +134,21 @@ def residuals(sim: WaterfallStatistics, real: WaterfallStatistics) -> dict[str, 
     out = {}
     for side in SIDES:
         a, b = sim.sides()[side], real.sides()[side]
-        for key in FEATURES[:-2]:
+        for key in TOLERANCES:
             out[f"{key}.{side}"] = _one(key, float(getattr(a, key)), float(getattr(b, key)))
         js = jensenshannon(b.hist_lbp, a.hist_lbp, base=2)
         out[f"texture_js.{side}"] = float(js) / TEXTURE_JS_MAX
+        out[f"texture_tile_db.{side}"] = (
+            a.texture_tile_db - b.texture_tile_db
+        ) / TEXTURE_TILE_TOLERANCE_DB
         out[f"headroom_db.{side}"] = (a.headroom_db - b.headroom_db) / HEADROOM_TOLERANCE_DB
     return out
 
 
-def residual_vector(res: dict[str, float]) -> np.ndarray:
-    """Residuals, convergence features first (RESIDUAL_KEYS order); a missing statistic
+def residual_vector(res: dict[str, float], keys: tuple[str, ...] = RESIDUAL_KEYS) -> np.ndarray:
+    """Residuals, convergence features first (``keys`` order); a missing statistic
     (nan) counts as 10 tolerances."""
-    v = np.array([res[k] for k in RESIDUAL_KEYS], dtype=np.float64)
+    v = np.array([res[k] for k in keys], dtype=np.float64)
     return np.where(np.isfinite(v), v, 10.0)
 
 
@@ -137,9 +157,9 @@ def loss(res: dict[str, float]) -> float:
     return float(np.mean(residual_vector(res) ** 2))
 
 
-def _worst(rv: np.ndarray) -> float:
-    """Largest |residual| over the convergence features."""
-    return float(np.abs(rv[: 2 * len(CONVERGENCE_FEATURES)]).max())
+def _worst(rv: np.ndarray, n_conv: int = 2 * len(CONVERGENCE_FEATURES)) -> float:
+    """Largest |residual| over the convergence features (the first ``n_conv``)."""
+    return float(np.abs(rv[:n_conv]).max())
 
 
 def _simplex(u: np.ndarray, step: float = 0.15) -> np.ndarray:
@@ -177,12 +197,20 @@ def calibrate(
     good_enough: float | None = None,
     diff_step: float = 0.03,
     model_config: RealismConfig | None = None,
+    fit_tile_texture: bool = False,
+    model_first_return: float | None = None,
 ) -> CalibrationResult:
     """Fit ``parameters`` of ``simulate`` to the ``target`` statistics.
 
     ``model_config`` is how the model's images are measured: give it the model's
     ``full_scale`` (its clip level), so that the saturation and headroom follow the gain
-    even where the model does not clip.
+    even where the model does not clip. ``fit_tile_texture``: the seabed texture at the
+    patch scale (``texture_tile_db``, within 1 dB) is a convergence feature too — for a
+    model whose texture level and size are free (the ray-cast survey), so the texture
+    that gives the in-patch statistics is not painted stronger across patches than the
+    recording's. ``model_first_return``: the model images' first bottom return (sample
+    index, every ping) instead of the detector — for a model whose water column is not
+    darker than its seabed (recreational displays), flown at a known altitude.
 
     Converged means every feature within ``max_residual`` tolerances (issue 11: every row
     of the table within its tolerance). ``max_evaluations`` bounds the model runs in all
@@ -198,7 +226,8 @@ def calibrate(
     if len(set(names)) != len(names):
         raise ValueError(f"parameter names must be unique, got {names}")
     cache: dict[tuple, tuple[np.ndarray, WaterfallStatistics | None, dict]] = {}
-    failed = np.full(len(RESIDUAL_KEYS), math.sqrt(FAILED_LOSS))
+    keys, n_conv = residual_keys(fit_tile_texture)
+    failed = np.full(len(keys), math.sqrt(FAILED_LOSS))
 
     def values_of(u: np.ndarray) -> dict[str, float]:
         return {p.name: p.from_unit(float(x)) for p, x in zip(parameters, u, strict=True)}
@@ -209,14 +238,18 @@ def calibrate(
             if len(cache) >= max_evaluations:
                 raise _Budget
             try:
-                st = waterfall_statistics(simulate(values_of(np.asarray(key))), model_config)
+                img = simulate(values_of(np.asarray(key)))
+                fr = None
+                if model_first_return is not None:
+                    fr = np.full(np.shape(img)[0], float(model_first_return))
+                st = waterfall_statistics(img, model_config, first_return=fr)
             except ValueError:
                 cache[key] = (failed, None, {})
             else:
                 res = residuals(st, target)
-                cache[key] = (residual_vector(res), st, res)
+                cache[key] = (residual_vector(res, keys), st, res)
             if good_enough is not None and cache[key][1] is not None:
-                if _worst(cache[key][0]) <= good_enough:
+                if _worst(cache[key][0], n_conv) <= good_enough:
                     raise _Budget
         return cache[key]
 
@@ -235,7 +268,7 @@ def calibrate(
             f"the model gives no usable image at the start values {values_of(u0)} "
             "(no seabed or too short): check the preset, altitude and range"
         )
-    done = good_enough is not None and _worst(r0) <= good_enough
+    done = good_enough is not None and _worst(r0, n_conv) <= good_enough
     try:
         if done:
             raise _Budget
@@ -252,7 +285,7 @@ def calibrate(
     except _Budget:
         u = best_seen()
     left = max_evaluations - len(cache)
-    if not done and _worst(evaluate(u)[0]) > max_residual and left > len(u) + 1:
+    if not done and _worst(evaluate(u)[0], n_conv) > max_residual and left > len(u) + 1:
         # least squares stalls where a feature is flat (no clipping at all): polish by
         # Nelder–Mead from the better of the start and the least-squares point
         start = min((u0, u), key=lambda x: float(np.mean(evaluate(x)[0] ** 2)))
@@ -285,12 +318,12 @@ def calibrate(
             before=st0,
             after=st,
         )
-    if result is None or not _worst(rv) <= max_residual:
-        conv = {k: v for k, v in res.items() if k.split(".")[0] in CONVERGENCE_FEATURES}
+    if result is None or not _worst(rv, n_conv) <= max_residual:
+        conv = {k: v for k, v in res.items() if k in keys[:n_conv]}
         off = sorted(conv.items(), key=lambda kv: -abs(kv[1]))[:3]
         worst = ", ".join(f"{k} {v:+.1f} tolerances" for k, v in off)
         raise CalibrationError(
-            f"calibration did not converge: a statistic is {_worst(rv):.2g} tolerances "
+            f"calibration did not converge: a statistic is {_worst(rv, n_conv):.2g} tolerances "
             f"off (allowed {max_residual:g}; loss {float(np.mean(rv**2)):.3g}) after "
             f"{len(cache)} model runs; furthest off: {worst or 'no image'}",
             result,

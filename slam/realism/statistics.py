@@ -76,6 +76,7 @@ class SideStatistics:
     headroom_db: float  # 10·log10(clip level / P99 of the side's intensity), dB (>= 0)
     n_patches: int
     bottom_fraction: float
+    texture_tile_db: float  # seabed texture at the patch scale (tile_texture_db), dB
     hist_intensity: np.ndarray = field(repr=False)
     hist_lbp: np.ndarray = field(repr=False)
 
@@ -90,6 +91,7 @@ class SideStatistics:
         "headroom_db",
         "n_patches",
         "bottom_fraction",
+        "texture_tile_db",
     )
 
     def scalars(self) -> dict[str, float]:
@@ -189,6 +191,31 @@ def seabed_profile_peak(side: np.ndarray, track: BottomTrack, smooth: int) -> fl
     return float(uniform_filter1d(prof, min(smooth, prof.size), mode="nearest").max())
 
 
+def tile_texture_db(side: np.ndarray, seabed: np.ndarray, n: int) -> float:
+    """Seabed texture at the patch scale, dB: the spread of the n × n tile-mean intensities
+    of the seabed, in dB, once each range band's (tile column's) median is removed (the
+    range profile: beam pattern, TVG, grazing angle), as 1.4826 · MAD over the tiles (a
+    robust std, so a wreck's few tiles do not count). Every tile wholly on the seabed with
+    positive samples counts, homogeneous or not (the homogeneity test of the speckle rows
+    removes exactly this texture); range bands with fewer than two such tiles are left
+    out. Pure speckle (exponential intensity, independent samples) gives
+    10/ln10 · √ψ₁(n²) ≈ 4.34/n dB; a texture constant over each tile with a std of σ dB
+    adds σ in quadrature. nan when fewer than 8 tiles count."""
+    tiles = _tiles(side, n)
+    cols = side.shape[1] // n
+    ok = _tiles(seabed & (side > 0), n).all(axis=(1, 2)).reshape(-1, cols)
+    with np.errstate(divide="ignore"):
+        db = 10.0 * np.log10(tiles.mean(axis=(1, 2))).reshape(-1, cols)
+    ok &= (ok.sum(axis=0) >= 2)[None, :]
+    if ok.sum() < 8:
+        return float("nan")
+    keep = ok.any(axis=0)  # range bands with tiles (no all-nan median)
+    db, ok = db[:, keep], ok[:, keep]
+    band = np.nanmedian(np.where(ok, db, np.nan), axis=0)
+    d = (db - band[None, :])[ok]
+    return float(1.4826 * np.median(np.abs(d - np.median(d))))
+
+
 def _nanmedian(x: np.ndarray) -> float:
     """Median of the finite values (constant patches have no correlation); nan if none."""
     x = x[np.isfinite(x)]
@@ -253,6 +280,7 @@ def side_statistics(
         headroom_db=float(10.0 * np.log10(clip / min(hi_raw, clip))),
         n_patches=int(patches.shape[0]),
         bottom_fraction=track.found_fraction,
+        texture_tile_db=tile_texture_db(side, seabed, cfg.patch),
         hist_intensity=intensity_histogram(floored, seabed),
         hist_lbp=lbp_histogram(floored, seabed),
     )

@@ -95,3 +95,52 @@ def test_model_runs_stay_within_the_budget_and_stop_when_good_enough():
     own = waterfall_statistics(model(start), MODEL_STATS)
     r = calibrate(counted, own, PARAMETERS, good_enough=0.8, model_config=MODEL_STATS)
     assert len(calls) == 1 and r.evaluations == 1 and r.values == pytest.approx(start)
+
+
+def test_fit_with_tile_texture_meets_it_too():
+    """With ``fit_tile_texture`` the seabed texture at the patch scale is a convergence
+    feature: the converged fit has it within 1 dB of the target's as well."""
+    truth = dict(
+        gain_db=-9.0,
+        texture_db=3.0,
+        corr_range=0.5,
+        corr_ping=0.4,
+        water_column_db=-40.0,
+        looks=2.0,
+    )
+    target = waterfall_statistics(StatisticalSideScan(seed=1, **SIZE)(truth))
+    r = calibrate(
+        StatisticalSideScan(seed=0, **SIZE),
+        target,
+        PARAMETERS,
+        model_config=MODEL_STATS,
+        fit_tile_texture=True,
+    )
+    for side in ("port", "starboard"):
+        assert abs(r.residuals[f"texture_tile_db.{side}"]) <= 1.0
+        sim, real = r.after.sides()[side], target.sides()[side]
+        assert abs(sim.texture_tile_db - real.texture_tile_db) <= 1.0
+
+
+def test_model_first_return_for_a_model_without_a_dark_water_column():
+    """A display-like model whose water column is as bright as its seabed: the detector
+    finds no bottom in its images (no usable image); given the first return it knows
+    (its altitude), the fit runs and meets its own image."""
+    from tests.slam.realism.conftest import WC_SAMPLES, make_waterfall
+
+    def model(values):
+        rng = np.random.default_rng(0)
+        w = make_waterfall(
+            rng.exponential(1.0, (96, 256)), rng.exponential(1.0, (96, 256)), rng
+        ) * 10.0 ** (values["gain_db"] / 10.0)
+        s = w.shape[1] // 2  # water column (WC_SAMPLES next to nadir) as bright as seabed
+        w[:, s - WC_SAMPLES : s + WC_SAMPLES] = rng.exponential(1.0, (96, 2 * WC_SAMPLES))
+        return w
+
+    fr = np.full(96, float(WC_SAMPLES))
+    target = waterfall_statistics(model({"gain_db": 0.0}), first_return=fr)
+    p = [Parameter("gain_db", -3.0, 3.0, 0.0)]
+    with pytest.raises(CalibrationError, match="no usable image"):
+        calibrate(model, target, p, max_evaluations=3)
+    r = calibrate(model, target, p, max_evaluations=3, model_first_return=WC_SAMPLES)
+    assert r.values["gain_db"] == 0.0 and r.loss == pytest.approx(0.0, abs=1e-12)

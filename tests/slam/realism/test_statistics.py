@@ -165,3 +165,32 @@ def test_first_return_from_altitude_replaces_the_detector(rng):
         pytest.approx(np.nan, nan_ok=True),
         pytest.approx(np.nan, nan_ok=True),
     ]
+
+
+def _tile_texture(rng, sigma_db, p=512):
+    """Seabed of exponential speckle times a log-normal level constant over each 16 × 16
+    tile of the statistics' grid (seabed starts at sample WC_SAMPLES, a tile boundary)."""
+    tex = 10.0 ** (rng.normal(0.0, sigma_db, (p // 16, S_SEABED // 16)) / 10.0)
+    return rng.exponential(1.0, (p, S_SEABED)) * np.kron(tex, np.ones((16, 16)))
+
+
+@pytest.mark.parametrize("sigma_db", [0.0, 3.0])
+def test_tile_texture_is_speckle_and_texture_in_quadrature(rng, waterfall_factory, sigma_db):
+    """Tile means of 256 independent exponential samples spread by 10/ln10·√ψ₁(256)
+    (0.27 dB); a level constant over each tile with std σ dB adds σ in quadrature."""
+    from scipy.special import polygamma
+
+    assert WC_SAMPLES % 16 == 0
+    speckle_db = 10.0 / np.log(10.0) * np.sqrt(float(polygamma(1, 256)))
+    w = waterfall_factory(_tile_texture(rng, sigma_db), _tile_texture(rng, sigma_db), rng)
+    for s in waterfall_statistics(w).sides().values():
+        assert s.texture_tile_db == pytest.approx(np.hypot(speckle_db, sigma_db), rel=0.1)
+
+
+def test_tile_texture_ignores_a_few_bright_target_tiles(rng, waterfall_factory):
+    """A +20 dB 'wreck' over 2 % of the seabed tiles leaves the robust spread within 10 %."""
+    sb = [_tile_texture(rng, 2.0) for _ in range(2)]
+    plain = waterfall_statistics(waterfall_factory(*sb, rng)).port.texture_tile_db
+    sb[0][:48, :48] *= 100.0
+    with_wreck = waterfall_statistics(waterfall_factory(*sb, rng)).port.texture_tile_db
+    assert with_wreck == pytest.approx(plain, rel=0.1)
