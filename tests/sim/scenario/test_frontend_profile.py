@@ -36,9 +36,12 @@ def test_real_sidescan_profile_takes_the_recorded_data_front_end():
     assert cfg.normalization == REAL_SIDESCAN.normalization == "column-median"
     assert cfg.max_extent_m == REAL_SIDESCAN.max_extent_m
     assert cfg.drop_first_return_edge is REAL_SIDESCAN.drop_first_return_edge is True
+    assert cfg.require_shadow is REAL_SIDESCAN.require_shadow is True
     assert cfg.min_area_m2 == 0.2  # the scenario's own speckle filter
-    # the simulation's own pose prior and speed floor stay
-    assert cfg.pose0_var_xy_m2 == PipelineConfig().pose0_var_xy_m2
+    # the run's own pose prior (the launch lag) and the speed floor stay
+    sim_cfg = pipeline_config(_vehicle())
+    assert cfg.pose0_var_xy_m2 == sim_cfg.pose0_var_xy_m2
+    assert cfg.pose0_sigma_yaw_deg == sim_cfg.pose0_sigma_yaw_deg
     assert cfg.min_speed_mps == PipelineConfig().min_speed_mps
 
 
