@@ -61,6 +61,8 @@ AHRS_WHITE = AHRSConfig.preset(
 )
 
 
+# flat bottom on a 2 m grid: the 0.25 m default makes a mesh of ~0.4 M vertices
+# (160 m square) that costs seconds of MuJoCo compile per world; nothing here needs it
 @pytest.fixture(scope="module")
 def flown_states():
     """True states of an alister9 flying a 40 m x 25 m loop at cruise speed, 20 Hz, from
@@ -72,7 +74,7 @@ def flown_states():
 
     w = build_world(
         WorldSpec(
-            seabed=SeabedSpec(kind="flat", size_xy=(160.0, 160.0), depth=20.0),
+            seabed=SeabedSpec(kind="flat", size_xy=(160.0, 160.0), resolution=2.0, depth=20.0),
             vehicles=(VehicleSpec("alister9", position=(0.0, 0.0, -8.0)),),
         )
     )

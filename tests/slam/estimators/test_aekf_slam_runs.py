@@ -160,7 +160,7 @@ def test_dense_loop_filter_is_as_accurate_as_the_smoother(seed, consistent_fine_
     assert filt.landmark_rmse <= one_shot.landmark_rmse + 1e-9
 
 
-@pytest.mark.parametrize("seed", [2, 6])
+@pytest.mark.parametrize("seed", [2, pytest.param(6, marks=pytest.mark.slow)])
 def test_segmentation_loop_clustered_landmarks_need_joint_compatibility(seed):
     """The segmentation-loop map is cluttered (54 landmarks, some 1.7-6.6 m apart). At the
     loop closure of seeds 2 and 6 the pose uncertainty (σ ≈ 2.9 m) spans landmarks 30
@@ -168,7 +168,8 @@ def test_segmentation_loop_clustered_landmarks_need_joint_compatibility(seed):
     the unambiguous rule) pairs it with 48 and keeps doing so (> 100 false associations).
     Joint compatibility with ambiguity rejection (the "consistent" preset) waits until
     the scan's observations decide: every association agrees with the simulator's label
-    and no landmark is duplicated."""
+    and no landmark is duplicated. CI runs seed 2; seed 6, the same case again, is
+    ``slow``."""
     spec = get_experiment("segmentation-loop")
     ss = np.random.SeedSequence(seed)
     run = simulate_run(
