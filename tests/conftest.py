@@ -38,18 +38,3 @@ def rng():
     import numpy as np
 
     return np.random.default_rng(12345)
-
-
-@pytest.fixture(scope="session")
-def local_ray():
-    """One local Ray runtime (2 CPUs) for the tests that run sweeps or exports on Ray:
-    started and shut down by ``sim.parallel.ray_session`` (the path of a run without
-    ``--address``), once per pytest worker instead of once per test; the sweep and the
-    export attach to it as to a running cluster and must leave it running."""
-    pytest.importorskip("ray")
-    from sim.parallel import ray_session
-
-    with ray_session(2, None, "run the tests") as ray:
-        assert ray.is_initialized() and ray.cluster_resources().get("CPU") == 2
-        yield ray
-    assert not ray.is_initialized(), "ray_session did not shut down the Ray it started"
