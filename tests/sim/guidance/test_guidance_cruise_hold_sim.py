@@ -23,14 +23,19 @@ from sim.world.seabed import SeabedSpec
 
 # CI flies two of the vehicles (alister9, ixn: 100-120 s each on a
 # loaded 2-core machine); the other vehicles run with -m slow
+# flat bottom on a 2 m grid: the 0.25 m default makes a 0.3 M-vertex mesh over 300 m x 60 m
+# that costs seconds of MuJoCo compile per world; nothing here needs it
 @pytest.mark.parametrize(
     "kind",
-    [k if k in ("alister9", "ixn") else pytest.param(k, marks=pytest.mark.slow) for k in VEHICLE_KINDS],
+    [
+        k if k in ("alister9", "ixn") else pytest.param(k, marks=pytest.mark.slow)
+        for k in VEHICLE_KINDS
+    ],
 )
 def test_vehicle_holds_nominal_speed_without_limit_cycle(kind):
     w = build_world(
         WorldSpec(
-            seabed=SeabedSpec(kind="flat", size_xy=(300.0, 60.0), depth=30.0),
+            seabed=SeabedSpec(kind="flat", size_xy=(300.0, 60.0), resolution=2.0, depth=30.0),
             vehicles=(VehicleSpec(kind, position=(-140.0, 0.0, -6.0)),),
         )
     )

@@ -33,11 +33,13 @@ DEPTH_SETTLE = 20.0  # s
 ACCEPTANCE = 2.0  # m
 
 
+# flat bottom on a 2 m grid: the 0.25 m default makes a mesh of ~0.4 M vertices
+# (160 m square) that costs seconds of MuJoCo compile per world; nothing here needs it
 @pytest.fixture(scope="module", params=VEHICLE_KINDS)
 def world_kind(request):
     kind = request.param
     spec = WorldSpec(
-        seabed=SeabedSpec(kind="flat", size_xy=(160.0, 160.0), depth=20.0),
+        seabed=SeabedSpec(kind="flat", size_xy=(160.0, 160.0), resolution=2.0, depth=20.0),
         vehicles=(VehicleSpec(kind, position=(0.0, 0.0, -5.0)),),
     )
     return build_world(spec), kind
@@ -146,7 +148,7 @@ def test_long_missions_flown_to_completion(world_kind, mission_type):
     _, kind = world_kind
     world = build_world(
         WorldSpec(
-            seabed=SeabedSpec(kind="flat", size_xy=(400.0, 400.0), depth=20.0),
+            seabed=SeabedSpec(kind="flat", size_xy=(400.0, 400.0), resolution=2.0, depth=20.0),
             vehicles=(VehicleSpec(kind, position=(0.0, 0.0, -5.0)),),
         )
     )

@@ -33,12 +33,24 @@ def _metrics_by_run(out: Path) -> dict[str, dict]:
     return {r["run_id"]: {k: v for k, v in r["metrics"].items() if k not in CLOCKS} for r in recs}
 
 
-def test_two_worker_sweep_equals_serial_run_by_run(tmp_path):
-    plan = SweepPlan(TARGET, runs=3, vary=VARY, base_seed=5)
-    serial = run_sweep(plan, tmp_path / "serial", workers=1, progress=False)
-    par = run_sweep(plan, tmp_path / "par", workers=2, progress=False)
-    assert not serial.failed and not par.failed
-    a, b = _metrics_by_run(tmp_path / "serial"), _metrics_by_run(tmp_path / "par")
+#: the plan both parallel tests (process pool, Ray) compare with its serial run
+PARALLEL_PLAN = SweepPlan(TARGET, runs=3, vary=VARY, base_seed=5)
+
+
+@pytest.fixture(scope="module")
+def serial_metrics(tmp_path_factory) -> dict[str, dict]:
+    """PARALLEL_PLAN run serially (one process), metrics by run id: the reference of the
+    two-worker and the Ray test, made once."""
+    out = tmp_path_factory.mktemp("serial")
+    res = run_sweep(PARALLEL_PLAN, out, workers=1, progress=False)
+    assert not res.failed and len(res.finished) == 3
+    return _metrics_by_run(out)
+
+
+def test_two_worker_sweep_equals_serial_run_by_run(serial_metrics, tmp_path):
+    par = run_sweep(PARALLEL_PLAN, tmp_path / "par", workers=2, progress=False)
+    assert not par.failed
+    a, b = serial_metrics, _metrics_by_run(tmp_path / "par")
     assert sorted(a) == sorted(b) and len(a) == 3
     for run_id in a:
         assert a[run_id] == b[run_id], run_id
@@ -166,15 +178,13 @@ def test_nees_bounds_are_the_published_ones():
     assert c["mean_nees"] == pytest.approx(3.0, abs=0.1)
 
 
-def test_ray_local_two_workers_equals_serial(tmp_path):
+def test_ray_local_two_workers_equals_serial(serial_metrics, tmp_path):
     """A local Ray started by the sweep (2 workers) gives the serial results run by run."""
     pytest.importorskip("ray")
-    plan = SweepPlan(TARGET, runs=2, vary=VARY, base_seed=11)
-    serial = run_sweep(plan, tmp_path / "serial", progress=False)
-    on_ray = run_sweep(plan, tmp_path / "ray", workers=2, use_ray=True, progress=False)
-    assert not serial.failed and not on_ray.failed
-    a, b = _metrics_by_run(tmp_path / "serial"), _metrics_by_run(tmp_path / "ray")
-    assert sorted(a) == sorted(b) and len(a) == 2
+    on_ray = run_sweep(PARALLEL_PLAN, tmp_path / "ray", workers=2, use_ray=True, progress=False)
+    assert not on_ray.failed
+    a, b = serial_metrics, _metrics_by_run(tmp_path / "ray")
+    assert sorted(a) == sorted(b) and len(a) == 3
     for run_id in a:
         assert a[run_id] == b[run_id], run_id
 

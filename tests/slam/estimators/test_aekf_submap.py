@@ -140,7 +140,9 @@ def _assert_equals_full_filter(maps, full, gm):
     assert gm.n_fused == sum(m.n_landmarks for m in maps) - len(full.ids)
     np.testing.assert_array_equal(gm.labels, full.ids)
     d = gm.x - full.x
-    d[2] = (d[2] + np.pi) % (2 * np.pi) - np.pi  # the joined heading is wrapped, the linear filter's not
+    d[2] = (d[2] + np.pi) % (
+        2 * np.pi
+    ) - np.pi  # the joined heading is wrapped, the linear filter's not
     np.testing.assert_allclose(d, 0.0, atol=1e-9)
     np.testing.assert_allclose(gm.P, full.P, atol=1e-10 * np.abs(full.P).max())
 
@@ -310,15 +312,30 @@ def test_incremental_join_of_the_filter_equals_joining_from_scratch(run):
     assert not np.allclose(f.pose()[0], g.pose()[0], atol=1e-3)  # fusion moved the base
 
 
-def test_join_at_switch_corrects_the_running_pose_on_the_dense_loop():
+@pytest.fixture(scope="module")
+def dense_loop_result():
+    """``run_once`` on the dense loop (Bailey's dt 0.025 s), made once per module and
+    parameters: the chain of local maps of seed 0 is checked by two tests."""
+    spec = get_experiment("dense-loop")
+    done = {}
+
+    def get(filter_name: str, seed: int, params: dict):
+        key = (filter_name, seed, tuple(sorted(params.items())))
+        if key not in done:
+            done[key] = run_once(spec, filter_name, seed, params)
+        return done[key]
+
+    return get
+
+
+def test_join_at_switch_corrects_the_running_pose_on_the_dense_loop(dense_loop_result):
     """Chain pose vs fused base on the dense loop (seed 0, local maps of 8): the running
     pose with ``join_at_switch`` gets the loop closures, so its trajectory error is
     smaller (measured seeds 0–9: ATE median 3.8 m against 6.4 m for the chain; single map
     3.4 m); the landmark map is the same."""
-    spec = get_experiment("dense-loop")
     p = {"preset": "consistent", "max_landmarks": 8}
-    chain = run_once(spec, "aekf-submap", 0, p)
-    fused = run_once(spec, "aekf-submap", 0, {**p, "join_at_switch": True})
+    chain = dense_loop_result("aekf-submap", 0, p)
+    fused = dense_loop_result("aekf-submap", 0, {**p, "join_at_switch": True})
     assert fused.ate < 0.5 * chain.ate
     np.testing.assert_allclose(fused.lm_est, chain.lm_est, atol=1e-9)
 
@@ -326,18 +343,17 @@ def test_join_at_switch_corrects_the_running_pose_on_the_dense_loop():
 # --------------------------------------------------------------------------- dense loop
 
 
-def _dense_loop(seeds, params):
-    spec = get_experiment("dense-loop")
+def _dense_loop(result, seeds, params):
     rows = []
     for seed in seeds:
-        single = run_once(spec, "aekf", seed, params)
-        joined = run_once(spec, "aekf-submap", seed, {**params, "max_landmarks": 8})
+        single = result("aekf", seed, params)
+        joined = result("aekf-submap", seed, {**params, "max_landmarks": 8})
         rows.append((single, joined))
     return rows
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_dense_loop_joined_map_has_no_duplicates_and_single_map_accuracy(seed):
+def test_dense_loop_joined_map_has_no_duplicates_and_single_map_accuracy(seed, dense_loop_result):
     """Dense loop (2 loops, 30 landmarks seen), "consistent" preset, local maps of 8
     landmarks (10 local maps, 73 landmarks in the chain): the joined map has exactly one
     landmark per true landmark and >= 90 % of them inside 3σ. RMSE bound per run: 2.5×
@@ -346,7 +362,7 @@ def test_dense_loop_joined_map_has_no_duplicates_and_single_map_accuracy(seed):
     0.38 m against 0.90 m joined); the sub-maps see the same data, but linearize the
     composition of local maps at different points than the single map, so they agree
     statistically, not exactly. The median is checked by the slow test."""
-    ((single, joined),) = _dense_loop([seed], {"preset": "consistent"})
+    ((single, joined),) = _dense_loop(dense_loop_result, [seed], {"preset": "consistent"})
     assert joined.n_duplicates == 0 and joined.n_missed == 0
     assert joined.n_landmarks == joined.n_true_seen
     assert joined.landmark_rmse <= 2.5 * single.landmark_rmse
@@ -354,10 +370,10 @@ def test_dense_loop_joined_map_has_no_duplicates_and_single_map_accuracy(seed):
 
 
 @pytest.mark.slow
-def test_dense_loop_joined_map_over_20_runs():
+def test_dense_loop_joined_map_over_20_runs(dense_loop_result):
     """20 runs: no duplicates in any, median RMSE ratio joined / single map <= 1.3 (measured
     1.09), mean fraction of landmarks inside 3σ >= 0.9 (measured 0.937; single map 0.968)."""
-    rows = _dense_loop(range(20), {"preset": "consistent"})
+    rows = _dense_loop(dense_loop_result, range(20), {"preset": "consistent"})
     ratio = np.array([j.landmark_rmse / s.landmark_rmse for s, j in rows])
     assert all(j.n_duplicates == 0 for _, j in rows)
     assert np.median(ratio) <= 1.3

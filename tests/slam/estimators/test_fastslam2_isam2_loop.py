@@ -99,22 +99,38 @@ def nearest_errors(est_lm, true_lm):
     return d[j, np.arange(true_lm.shape[0])], j
 
 
-def _estimators(seed):
-    ests = [
-        ("fastslam2-known", FastSLAM2(rng=np.random.default_rng(seed), association="known")),
-        ("fastslam2-ml", FastSLAM2(rng=np.random.default_rng(seed))),
-    ]
+@pytest.fixture(scope="module")
+def circle_ml_run():
+    """FastSLAM 2.0 with its default (maximum-likelihood) association driven over
+    ``circle_scenario(seed)``, made once per module: the circle tests below check the same
+    run (rng ``default_rng(seed)``) for different things."""
+    done = {}
+
+    def get(seed: int):
+        if seed not in done:
+            _, _, scans = circle_scenario(seed)
+            done[seed] = run_estimator(FastSLAM2(rng=np.random.default_rng(seed)), scans)
+        return done[seed]
+
+    return get
+
+
+def _estimators(seed, circle_ml_run):
+    """(name, estimator already driven over ``circle_scenario(seed)``)."""
+    _, _, scans = circle_scenario(seed)
+    known = FastSLAM2(rng=np.random.default_rng(seed), association="known")
+    ests = [("fastslam2-known", run_estimator(known, scans))]
+    ests.append(("fastslam2-ml", circle_ml_run(seed)))
     if HAVE_GTSAM:  # the optional baselines extra
-        ests.append(("isam2-ml", ISAM2SLAM()))
+        ests.append(("isam2-ml", run_estimator(ISAM2SLAM(), scans)))
     return ests
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_circle_loop_both_estimators_map_better_than_dead_reckoning(seed):
+def test_circle_loop_both_estimators_map_better_than_dead_reckoning(seed, circle_ml_run):
     lm, _, scans = circle_scenario(seed)
     dr = dead_reckoning_map_rmse(lm, scans)
-    for name, est in _estimators(seed):
-        run_estimator(est, scans)
+    for name, est in _estimators(seed, circle_ml_run):
         M, C = est.landmarks()
         assert np.all(np.isfinite(M)) and np.all(np.isfinite(C)), name
         err, j = nearest_errors(M, lm)
@@ -228,7 +244,9 @@ def test_dense_loop_two_loops_five_seeds():
     assert np.median(fs_rmse) < np.median(dr_rmse), (fs_rmse, dr_rmse)
 
 
-def test_circle_ml_loop_closure_allowance_reassociates_where_plain_gating_duplicates():
+def test_circle_ml_loop_closure_allowance_reassociates_where_plain_gating_duplicates(
+    circle_ml_run,
+):
     """Maximum-likelihood association per particle on the circle world (1.25 loops, seeds
     0-3). Independent expectation: the map has exactly the 12 true landmarks. With the
     loop-closure allowance (default ``loop_drift_100m``) every run re-associates the first
@@ -240,7 +258,7 @@ def test_circle_ml_loop_closure_allowance_reassociates_where_plain_gating_duplic
     for seed in range(4):
         lm, _, scans = circle_scenario(seed)
         dr = dead_reckoning_map_rmse(lm, scans)
-        f = run_estimator(FastSLAM2(rng=np.random.default_rng(seed)), scans)
+        f = circle_ml_run(seed)
         M, _ = f.landmarks()
         assert M.shape[0] == 12, f"seed {seed}: {M.shape[0]} landmarks"
         err, j = nearest_errors(M, lm)
@@ -261,6 +279,23 @@ def _runner_rmse(seeds, params):
     return out
 
 
+def test_dense_loop_known_association_default_within_baileys_median():
+    """CI variant of the next test (3 of its 5 runs, ~3 runs' CPU instead of 10): dense
+    loop, 2 loops, dt 0.025 s, 100 particles, known association with the DEFAULT
+    parameters, the runner's seeds 0-2 (the first three, not picked). Independent
+    expectation: Tim Bailey's FastSLAM 2.0 (Octave) reaches a median landmark RMSE of
+    3.39 m over its 15 finite runs of 20 (REFERENCE.md); the median of these three runs
+    must be below it (measured 2.68 m: 2.68, 1.91, 5.11 m), with no duplicated landmark
+    and finite NEES in every scan. Three runs give a noisier median than five (one run
+    of three above 3.4 m is allowed, two are not); the comparison with Bailey's
+    resampling rule on the same data needs all five seeds and is in the slow test."""
+    ours = _runner_rmse(range(3), {"association": "known"})
+    med = float(np.median([r.landmark_rmse for r in ours]))
+    assert med < 3.4, [r.landmark_rmse for r in ours]
+    assert all(r.n_duplicates == 0 for r in ours)
+
+
+@pytest.mark.slow
 def test_dense_loop_known_association_default_beats_baileys_median():
     """Dense loop, 2 loops, dt 0.025 s, 100 particles, known association with the DEFAULT
     parameters, the runner's seeds 0-4 (the CLI's data). Independent expectations: Tim
