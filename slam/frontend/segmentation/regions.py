@@ -32,6 +32,8 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
+from .kernels import remove_small_components_u8
+
 __all__ = [
     "Region",
     "RegionFilter",
@@ -198,17 +200,12 @@ def _as_u8(mask: np.ndarray) -> np.ndarray:
 
 
 def remove_small_components(mask: np.ndarray, a_px: int) -> np.ndarray:
-    """Step 1: drop 8-connected components with fewer than ``a_px`` pixels (``bwareaopen``).
-    Returns a 0/1 ``uint8`` mask."""
+    """Step 1: drop 8-connected components with fewer than ``a_px`` pixels (``bwareaopen``;
+    one compiled breadth-first pass, :mod:`.kernels`). Returns a 0/1 ``uint8`` mask."""
     m = _as_u8(mask)
     if a_px <= 1:
         return m
-    _n, labels, stats, _ = cc_stats_compact(m)
-    keep = stats[:, cv2.CC_STAT_AREA] >= a_px
-    keep[0] = False
-    if keep[1:].all():
-        return m
-    return np.take(keep.view(np.uint8), labels)
+    return remove_small_components_u8(m, a_px)
 
 
 def _bridge_rule(pattern: np.ndarray) -> bool:
