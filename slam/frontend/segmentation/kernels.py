@@ -1,6 +1,7 @@
 """Compiled passes of the improved Otsu front end: Canny's non-maximum suppression,
-hysteresis and the count N_a of small edge objects in one kernel, and the removal of
-small 8-connected components (Algorithm 2 step 1).
+hysteresis and the count N_a of small edge objects in one kernel, the removal of small
+8-connected components (Algorithm 2 step 1), the hole filling (step 4) and the regions'
+second-moment sums.
 
 :func:`small_edge_objects` computes from the float32 gradients what
 ``count_small_contours(cv2.Canny(rint(dx·s), rint(dy·s), …), a)`` computes in
@@ -32,7 +33,13 @@ import cv2
 import numba
 import numpy as np
 
-__all__ = ["canny_thresholds", "remove_small_components_u8", "small_edge_objects"]
+__all__ = [
+    "canny_thresholds",
+    "fill_holes_u8",
+    "remove_small_components_u8",
+    "second_moment_sums",
+    "small_edge_objects",
+]
 
 #: int16 full scale of the gradients handed to Canny (as :mod:`.methods`)
 GRAD_SCALE = 16000.0
@@ -52,51 +59,58 @@ def _rint_scaled(v, scale):
 
 
 @numba.njit(cache=True)
-def _squared_magnitude(dx, dy, scale):
-    """Squared magnitude of the scaled int16 gradients in a zero-bordered flat
+def _scaled_gradients(dx, dy, scale):
+    """int16 scaled gradients (H, W) and their squared magnitude in a zero-bordered flat
     (H + 2)(W + 2) int32 array."""
     h, w = dx.shape
     wp = w + 2
+    xs = np.empty((h, w), np.int16)
+    ys = np.empty((h, w), np.int16)
     mag = np.zeros((h + 2) * wp, np.int32)
     for i in range(h):
         base = (i + 1) * wp + 1
         for j in range(w):
             a = _rint_scaled(dx[i, j], scale)
             b = _rint_scaled(dy[i, j], scale)
+            xs[i, j] = a
+            ys[i, j] = b
             mag[base + j] = np.int32(a * a + b * b)
-    return mag
+    return xs, ys, mag
 
 
 @numba.njit(cache=True)
-def _suppress(dx, dy, scale, mag, low, high):
+def _suppress(xs, ys, mag, low, high):
     """Non-maximum suppression: 0 = not an edge, 1 = candidate (local maximum above
-    ``low``), 2 = strong (above ``high``); flat, zero-bordered uint8."""
-    h, w = dx.shape
+    ``low``), 2 = strong (above ``high``); flat, zero-bordered uint8. Branch-free: the
+    sector (horizontal, vertical, the two diagonals) indexes the neighbour offsets."""
+    h, w = xs.shape
     wp = w + 2
     emap = np.zeros((h + 2) * wp, np.uint8)
+    off = np.array([1, wp, wp + 1, wp - 1], np.int64)
     for i in range(h):
         base = (i + 1) * wp + 1
         for j in range(w):
             p = base + j
             m = np.int64(mag[p])
-            if m <= low:
-                continue
-            xv = _rint_scaled(dx[i, j], scale)
-            yv0 = _rint_scaled(dy[i, j], scale)
+            xv = np.int64(xs[i, j])
+            yv0 = np.int64(ys[i, j])
             x = abs(xv)
             yv = abs(yv0) << 15
             tg22x = x * _TG22
-            if yv < tg22x:
-                keep = m > mag[p - 1] and m >= mag[p + 1]
-            else:
-                tg67x = tg22x + (x << 16)
-                if yv > tg67x:
-                    keep = m > mag[p - wp] and m >= mag[p + wp]
-                else:
-                    s = -1 if (xv ^ yv0) < 0 else 1
-                    keep = m > mag[p - wp - s] and m > mag[p + wp + s]
-            if keep:
-                emap[p] = 2 if m > high else 1
+            tg67x = tg22x + (x << 16)
+            horiz = np.int64(yv < tg22x)
+            vert = np.int64(yv > tg67x)
+            neg = np.int64((xv ^ yv0) < 0)
+            sector = (1 - horiz) * (vert + (1 - vert) * (2 + neg))
+            o = off[sector]
+            after = np.int64(mag[p + o])
+            strict = np.int64(sector >= 2)
+            keep = (
+                np.int64(m > low)
+                * np.int64(m > mag[p - o])
+                * (np.int64(m > after) | (np.int64(m == after) * (1 - strict)))
+            )
+            emap[p] = np.uint8(keep * (1 + np.int64(m > high)))
     return emap
 
 
@@ -111,8 +125,8 @@ def _canny_small_objects(dx, dy, scale, low, high, a_px):
     through candidates only), and is then one edge object."""
     w = dx.shape[1]
     wp = w + 2
-    mag = _squared_magnitude(dx, dy, scale)
-    emap = _suppress(dx, dy, scale, mag, low, high)
+    xs, ys, mag = _scaled_gradients(dx, dy, scale)
+    emap = _suppress(xs, ys, mag, low, high)
     offs = np.array([-wp - 1, -wp, -wp + 1, -1, 1, wp - 1, wp, wp + 1], np.int64)
     stack = np.empty(emap.size, np.int64)  # each pixel is pushed at most once
     n_small = 0
@@ -217,3 +231,108 @@ def remove_small_components_u8(m: np.ndarray, a_px: int) -> np.ndarray:
     pixels (``m`` itself when none is removed)."""
     out, removed = _remove_small(m, int(a_px))
     return out if removed else m
+
+
+@numba.njit(cache=True)
+def second_moment_sums(labels, cx, cy, n):
+    """Per-label sums of ``dx²``, ``dy²`` and ``dx·dy`` about the centroids ``(cx, cy)``
+    (n,) over the pixels of the (H, W) label image (label 0 skipped), each label's pixels
+    in raster order: the floats ``np.bincount(labels, weights)`` gives, in one pass."""
+    h, w = labels.shape
+    sxx = np.zeros(n)
+    syy = np.zeros(n)
+    sxy = np.zeros(n)
+    for i in range(h):
+        for j in range(w):
+            k = labels[i, j]
+            if k > 0:
+                dx = j - cx[k]
+                dy = i - cy[k]
+                sxx[k] += dx * dx
+                syy[k] += dy * dy
+                sxy[k] += dx * dy
+    return sxx, syy, sxy
+
+
+@numba.njit(cache=True)
+def _find(parent, a):
+    root = a
+    while parent[root] != root:
+        root = parent[root]
+    while parent[a] != root:
+        nxt = parent[a]
+        parent[a] = root
+        a = nxt
+    return root
+
+
+@numba.njit(cache=True)
+def fill_holes_u8(m):
+    """``imfill(m, 'holes')`` of a 0/1 uint8 mask: background pixels not reachable from
+    outside the image through 4-connected background become 1.
+
+    Run-based: the background runs of each row are joined (union–find) with the runs of
+    the row above that share a column; a run set reaches outside when one of its runs
+    touches the image border. Work in proportion to the runs, not the pixels."""
+    h, w = m.shape
+    cap = 1024
+    rs = np.empty(cap, np.int64)  # run start column
+    re = np.empty(cap, np.int64)  # run end column (exclusive)
+    row_first = np.empty(h + 1, np.int64)
+    n = 0
+    for i in range(h):
+        row_first[i] = n
+        j = 0
+        while j < w:
+            if m[i, j] != 0:
+                j += 1
+                continue
+            s = j
+            while j < w and m[i, j] == 0:
+                j += 1
+            if n == cap:
+                cap *= 2
+                rs2 = np.empty(cap, np.int64)
+                re2 = np.empty(cap, np.int64)
+                rs2[:n] = rs[:n]
+                re2[:n] = re[:n]
+                rs = rs2
+                re = re2
+            rs[n] = s
+            re[n] = j
+            n += 1
+    row_first[h] = n
+    parent = np.arange(n + 1)  # n = the outside
+    outside = n
+    for i in range(h):
+        a0, a1 = row_first[i], row_first[i + 1]
+        for r in range(a0, a1):
+            if i == 0 or i == h - 1 or rs[r] == 0 or re[r] == w:
+                ra = _find(parent, r)
+                if ra != outside:
+                    parent[ra] = outside
+        if i == 0:
+            continue
+        b = row_first[i - 1]
+        b1 = a0
+        r = a0
+        while r < a1 and b < b1:
+            if rs[r] < re[b] and rs[b] < re[r]:  # 4-connected: a shared column
+                ra = _find(parent, r)
+                rb = _find(parent, b)
+                if ra != rb:
+                    if rb == outside:
+                        parent[ra] = rb
+                    else:
+                        parent[rb] = ra
+            if re[r] < re[b]:
+                r += 1
+            else:
+                b += 1
+    out = m.copy()
+    for i in range(h):
+        for r in range(row_first[i], row_first[i + 1]):
+            if _find(parent, r) != outside:
+                for j in range(rs[r], re[r]):
+                    out[i, j] = 1
+    return out
