@@ -52,65 +52,79 @@ _RINT_MAGIC = 6755399441055744.0
 
 
 @numba.njit(cache=True)
-def _rint_scaled(v, scale):
-    """``rint(v · scale)`` in float64, saturated to int16, as int64."""
-    t = min(max(np.float64(v) * scale, -32768.0), 32767.0)
-    return np.int64((t + _RINT_MAGIC) - _RINT_MAGIC)
+def _scale_row(dxr, dyr, scale, xr, yr, mr):
+    """One row of :func:`_scaled_gradients` (straight-line code, vectorized by LLVM)."""
+    for j in range(dxr.size):
+        va = np.float64(dxr[j]) * scale
+        vb = np.float64(dyr[j]) * scale
+        va = -32768.0 if va < -32768.0 else (32767.0 if va > 32767.0 else va)
+        vb = -32768.0 if vb < -32768.0 else (32767.0 if vb > 32767.0 else vb)
+        a = np.int32((va + _RINT_MAGIC) - _RINT_MAGIC)
+        b = np.int32((vb + _RINT_MAGIC) - _RINT_MAGIC)
+        xr[j] = np.int16(a)
+        yr[j] = np.int16(b)
+        mr[j + 1] = a * a + b * b
 
 
 @numba.njit(cache=True)
 def _scaled_gradients(dx, dy, scale):
-    """int16 scaled gradients (H, W) and their squared magnitude in a zero-bordered flat
-    (H + 2)(W + 2) int32 array."""
+    """int16 ``rint(dx · scale)``, ``rint(dy · scale)`` (float64, saturated: the
+    rounding of ``cv2.multiply(dx, scale, dtype=cv2.CV_16S)``) and their squared
+    magnitude in a zero-bordered flat (H + 2)(W + 2) int32 array."""
     h, w = dx.shape
     wp = w + 2
     xs = np.empty((h, w), np.int16)
     ys = np.empty((h, w), np.int16)
     mag = np.zeros((h + 2) * wp, np.int32)
+    rows = mag.reshape(h + 2, wp)
     for i in range(h):
-        base = (i + 1) * wp + 1
-        for j in range(w):
-            a = _rint_scaled(dx[i, j], scale)
-            b = _rint_scaled(dy[i, j], scale)
-            xs[i, j] = a
-            ys[i, j] = b
-            mag[base + j] = np.int32(a * a + b * b)
+        _scale_row(dx[i], dy[i], scale, xs[i], ys[i], rows[i + 1])
     return xs, ys, mag
 
 
 @numba.njit(cache=True)
+def _suppress_row(xr, yr, mp, mc, mn, low, high, out):
+    """Non-maximum suppression of one row, branch-free int32 arithmetic (vectorized by
+    LLVM): ``mp``, ``mc``, ``mn`` are the zero-bordered magnitude rows above, at and
+    below (pixel j at index j + 1); ``out`` gets 0 (not an edge), 1 (candidate: local
+    maximum along the gradient sector above ``low``) or 2 (also above ``high``)."""
+    for j in range(xr.size):
+        m = mc[j + 1]
+        xv = np.int32(xr[j])
+        yv0 = np.int32(yr[j])
+        x = np.abs(xv)
+        yv = np.abs(yv0) << np.int32(15)
+        tg22x = x * np.int32(_TG22)
+        tg67x = tg22x + (x << np.int32(16))
+        horiz = np.int32(yv < tg22x)
+        vert = np.int32(yv > tg67x) * (1 - horiz)
+        diag = 1 - horiz - vert
+        pos = np.int32((xv ^ yv0) >= 0)  # diagonal direction s = +1
+        k_h = np.int32(m > mc[j]) & np.int32(m >= mc[j + 2])
+        k_v = np.int32(m > mp[j + 1]) & np.int32(m >= mn[j + 1])
+        k_d1 = np.int32(m > mp[j]) & np.int32(m > mn[j + 2])
+        k_d2 = np.int32(m > mp[j + 2]) & np.int32(m > mn[j])
+        k_d = pos * k_d1 + (1 - pos) * k_d2
+        keep = (horiz * k_h + vert * k_v + diag * k_d) & np.int32(m > low)
+        out[j] = np.uint8(keep * (1 + np.int32(m > high)))
+
+
+@numba.njit(cache=True)
 def _suppress(xs, ys, mag, low, high):
-    """Non-maximum suppression: 0 = not an edge, 1 = candidate (local maximum above
-    ``low``), 2 = strong (above ``high``); flat, zero-bordered uint8. Branch-free: the
-    sector (horizontal, vertical, the two diagonals) indexes the neighbour offsets."""
+    """Non-maximum suppression of the image: flat, zero-bordered uint8 map of
+    :func:`_suppress_row` values (OpenCV's sectors: tan 22.5° = 13573 / 2¹⁵, strict
+    comparison before, non-strict after, strict both ways on the diagonals)."""
     h, w = xs.shape
     wp = w + 2
     emap = np.zeros((h + 2) * wp, np.uint8)
-    off = np.array([1, wp, wp + 1, wp - 1], np.int64)
+    rows = mag.reshape(h + 2, wp)
+    low32 = np.int32(min(low, 2**31 - 1))
+    high32 = np.int32(min(high, 2**31 - 1))
     for i in range(h):
-        base = (i + 1) * wp + 1
-        for j in range(w):
-            p = base + j
-            m = np.int64(mag[p])
-            xv = np.int64(xs[i, j])
-            yv0 = np.int64(ys[i, j])
-            x = abs(xv)
-            yv = abs(yv0) << 15
-            tg22x = x * _TG22
-            tg67x = tg22x + (x << 16)
-            horiz = np.int64(yv < tg22x)
-            vert = np.int64(yv > tg67x)
-            neg = np.int64((xv ^ yv0) < 0)
-            sector = (1 - horiz) * (vert + (1 - vert) * (2 + neg))
-            o = off[sector]
-            after = np.int64(mag[p + o])
-            strict = np.int64(sector >= 2)
-            keep = (
-                np.int64(m > low)
-                * np.int64(m > mag[p - o])
-                * (np.int64(m > after) | (np.int64(m == after) * (1 - strict)))
-            )
-            emap[p] = np.uint8(keep * (1 + np.int64(m > high)))
+        start = (i + 1) * wp + 1
+        _suppress_row(
+            xs[i], ys[i], rows[i], rows[i + 1], rows[i + 2], low32, high32, emap[start : start + w]
+        )
     return emap
 
 
