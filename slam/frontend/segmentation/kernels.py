@@ -248,14 +248,31 @@ def remove_small_components_u8(m: np.ndarray, a_px: int) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def second_moment_sums(labels, cx, cy, n):
+def second_moment_sums(labels, cx, cy, n, boxes):
     """Per-label sums of ``dx²``, ``dy²`` and ``dx·dy`` about the centroids ``(cx, cy)``
     (n,) over the pixels of the (H, W) label image (label 0 skipped), each label's pixels
-    in raster order: the floats ``np.bincount(labels, weights)`` gives, in one pass."""
+    in raster order: the floats ``np.bincount(labels, weights)`` gives. ``boxes`` (n, 4)
+    ``(left, top, width, height)`` (OpenCV's stats): when their areas add up to less than
+    the image each label is summed inside its box, else in one pass over the image."""
     h, w = labels.shape
     sxx = np.zeros(n)
     syy = np.zeros(n)
     sxy = np.zeros(n)
+    box_area = 0
+    for k in range(1, n):
+        box_area += boxes[k, 2] * boxes[k, 3]
+    if box_area < h * w:
+        for k in range(1, n):
+            x0, y0, bw, bh = boxes[k, 0], boxes[k, 1], boxes[k, 2], boxes[k, 3]
+            for i in range(y0, y0 + bh):
+                for j in range(x0, x0 + bw):
+                    if labels[i, j] == k:
+                        dx = j - cx[k]
+                        dy = i - cy[k]
+                        sxx[k] += dx * dx
+                        syy[k] += dy * dy
+                        sxy[k] += dx * dy
+        return sxx, syy, sxy
     for i in range(h):
         for j in range(w):
             k = labels[i, j]

@@ -291,14 +291,15 @@ def extract_regions(mask: np.ndarray) -> tuple[tuple[Region, ...], np.ndarray]:
     (:func:`.kernels.second_moment_sums`, the sums ``np.bincount`` forms).
     """
     m = _as_u8(mask)
-    n, labels, stats, centroids = cc_stats(m)
+    n, labels, stats, centroids = cc_stats_compact(m)
+    labels = labels.astype(np.int32, copy=False)
     if n <= 1:
         return (), labels
     area = stats[:, cv2.CC_STAT_AREA].astype(np.float64)
     area_div = np.maximum(area, 1.0)  # label 0 (background) may be empty
     cx = centroids[:, 0]
     cy = centroids[:, 1]
-    sxx, syy, sxy = second_moment_sums(labels, cx, cy, n)
+    sxx, syy, sxy = second_moment_sums(labels, cx, cy, n, stats)
     sxx = sxx / area_div
     syy = syy / area_div
     sxy = sxy / area_div

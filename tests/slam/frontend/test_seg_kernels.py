@@ -105,9 +105,21 @@ def test_fill_holes_nested_rings_and_diagonal_gaps():
 
 
 def test_second_moment_sums_equal_bincount(rng):
+    """Both summation orders: inside each bounding box (a few regions) and over the
+    whole image (a frame whose box is the image, so the boxes cover more than it)."""
     m = (rng.random((120, 150)) < 0.3).astype(np.uint8)
-    n, labels, _, cen = cv2.connectedComponentsWithStats(m, connectivity=8)
-    sxx, syy, sxy = second_moment_sums(labels, cen[:, 0], cen[:, 1], n)
+    framed = m.copy()
+    framed[0, :] = framed[-1, :] = framed[:, 0] = framed[:, -1] = 1
+    few = np.zeros_like(m)
+    few[10:40, 20:90] = m[10:40, 20:90] | (rng.random((30, 70)) < 0.5)
+    for img in (framed, few):
+        n, labels, stats, cen = cv2.connectedComponentsWithStats(img, connectivity=8)
+        sums = second_moment_sums(labels, cen[:, 0], cen[:, 1], n, stats)
+        _assert_bincount(img, labels, cen, n, sums)
+
+
+def _assert_bincount(m, labels, cen, n, sums):
+    sxx, syy, sxy = sums
     flat = np.flatnonzero(m)
     lab = labels.ravel()[flat]
     rows, cols = np.divmod(flat, m.shape[1])
