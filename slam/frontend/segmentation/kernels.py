@@ -367,3 +367,38 @@ def fill_holes_u8(m):
                 for j in range(rs[r], re[r]):
                     out[i, j] = 1
     return out
+
+
+@numba.njit(cache=True)
+def otsu_from_hist(hist):
+    """OpenCV's ``THRESH_OTSU`` threshold (``getThreshVal_Otsu_8u``: float64 class
+    moments accumulated level by level, levels whose class weight is within float32 eps
+    of 0 or 1 skipped, the first strict maximum of ``q1 q2 (mu1 - mu2)²``) from a (256,)
+    histogram of exact counts; equal to ``cv2.threshold(img, 0, 255, THRESH_OTSU)``."""
+    n = 0.0
+    for i in range(256):
+        n += hist[i]
+    scale = 1.0 / n
+    mu = 0.0
+    for i in range(256):
+        mu += i * np.float64(hist[i])
+    mu *= scale
+    mu1 = 0.0
+    q1 = 0.0
+    max_sigma = 0.0
+    max_val = 0
+    eps = 1.1920928955078125e-07  # FLT_EPSILON
+    for i in range(256):
+        p_i = hist[i] * scale
+        mu1 *= q1
+        q1 += p_i
+        q2 = 1.0 - q1
+        if min(q1, q2) < eps or max(q1, q2) > 1.0 - eps:
+            continue
+        mu1 = (mu1 + i * p_i) / q1
+        mu2 = (mu - q1 * mu1) / q2
+        sigma = q1 * q2 * (mu1 - mu2) * (mu1 - mu2)
+        if sigma > max_sigma:
+            max_sigma = sigma
+            max_val = i
+    return max_val

@@ -7,7 +7,8 @@ returns a :class:`SegmentationResult`.
 Improved Otsu TSM, step by step:
 
 1. power-law transform ``y = c·x^r`` (c = 0.1, r = 1.415) of the 8-bit image (eq. 3.11);
-2. traditional Otsu threshold ``T`` of ``y`` (OpenCV ``THRESH_OTSU``); ``b = y > T``;
+2. traditional Otsu threshold ``T`` of ``y`` (OpenCV's ``THRESH_OTSU`` formula on the
+   histogram that step 5 reuses, :func:`.kernels.otsu_from_hist`); ``b = y > T``;
 3. Canny edges of ``b`` (Algorithm 1): 3×3 Gaussian with σ = 0.5, 2×2 finite-difference
    gradient, non-maximum suppression and hysteresis with the high threshold a fraction
    of the maximum gradient magnitude (MATLAB's ``edge(b, 'canny', high)`` convention) and
@@ -45,7 +46,7 @@ import numpy as np
 
 from .image import as_gray8
 from .kapur import kapur_threshold_hist
-from .kernels import small_edge_objects
+from .kernels import otsu_from_hist, small_edge_objects
 from .otsu import gray_histogram, otsu_threshold, otsu_threshold_hist, power_law
 from .presets import SegmentationParams, get_preset
 from .regions import Region, RegionFilter, cc_stats_compact, extract_regions, morphology_chain
@@ -306,10 +307,12 @@ def improved_otsu(
     p = _resolve_params(params, gray8.shape)
     t_start = time.perf_counter()
     y = power_law(gray8, p.power_c, p.power_r)
-    lo, hi = int(y.min()), int(y.max())
+    hist = gray_histogram(y)  # exact counts below 2**24 pixels (float32 in OpenCV)
+    occupied = np.flatnonzero(hist)
+    lo, hi = int(occupied[0]), int(occupied[-1])
     if lo == hi:
         return _constant_result("improved-otsu", p, gray8, lo, region_filter)
-    t = otsu_threshold(y)
+    t = otsu_from_hist(hist) if y.size < 2**24 else otsu_threshold(y)
     b = _above(y, t)
     t1 = time.perf_counter()
     dx, dy = smoothed_gradients(b, p.gaussian_sigma, p.gaussian_ksize)
@@ -318,7 +321,7 @@ def improved_otsu(
     retriggered = n_a > p.n_max
     t_star = t
     if retriggered:
-        ts, _ = otsu_threshold_hist(gray_histogram(y), lo=t + 1) if t < 255 else (t, 0.0)
+        ts, _ = otsu_threshold_hist(hist, lo=t + 1) if t < 255 else (t, 0.0)
         t_star = ts if ts > t else t
         b = _above(y, t_star)
     t3 = time.perf_counter()

@@ -18,12 +18,13 @@ from slam.frontend.segmentation import get_preset, load_gray8
 from slam.frontend.segmentation.kernels import (
     GRAD_SCALE,
     fill_holes_u8,
+    otsu_from_hist,
     remove_small_components_u8,
     second_moment_sums,
     small_edge_objects,
 )
 from slam.frontend.segmentation.methods import _above, smoothed_gradients
-from slam.frontend.segmentation.otsu import otsu_threshold, power_law
+from slam.frontend.segmentation.otsu import gray_histogram, otsu_threshold, power_law
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
 from bench_frontend import synthetic_sss
@@ -135,6 +136,7 @@ def test_kernels_equal_opencv_on_real_sdvd_tiles(shared_data):
     p = get_preset("sdvd")
     for f in files:
         y = power_law(load_gray8(f), p.power_c, p.power_r)
+        assert otsu_from_hist(gray_histogram(y)) == otsu_threshold(y)
         b = _above(y, otsu_threshold(y))
         dx, dy = smoothed_gradients(b, p.gaussian_sigma, p.gaussian_ksize)
         n_a = small_edge_objects(dx, dy, p.canny_high, p.canny_low_ratio, p.a_px)
@@ -143,3 +145,18 @@ def test_kernels_equal_opencv_on_real_sdvd_tiles(shared_data):
             remove_small_components_u8(b, p.a_px), _opencv_remove_small(b, p.a_px)
         )
         assert np.array_equal(fill_holes_u8(b), _opencv_fill_holes(b))
+
+
+def test_otsu_from_hist_equals_opencv(rng):
+    for t in range(600):
+        h, w = (int(v) for v in rng.integers(1, 60, 2))
+        if t % 3 == 0:
+            img = rng.integers(0, 256, (h, w))
+        elif t % 3 == 1:
+            img = rng.normal(rng.uniform(0, 255), rng.uniform(1, 60), (h, w))
+        else:
+            img = rng.rayleigh(rng.uniform(5, 60), (h, w))
+        img = np.clip(img, 0, 255).astype(np.uint8)
+        assert otsu_from_hist(gray_histogram(img)) == otsu_threshold(img)
+    y = power_law(synthetic_sss((932, 1920), rng))
+    assert otsu_from_hist(gray_histogram(y)) == otsu_threshold(y)
