@@ -136,18 +136,19 @@ def _canny_small_objects(dx, dy, scale, low, high, a_px):
 
     Hysteresis and counting in one pass: an 8-connected component of candidate and
     strong pixels is entirely edge when it holds a strong pixel (hysteresis grows
-    through candidates only), and is then one edge object."""
+    through candidates only), and is then one edge object; so the components are grown
+    from the strong pixels and counted by size. (Flat indices fit int32 below 2³¹
+    pixels.)"""
     w = dx.shape[1]
     wp = w + 2
     xs, ys, mag = _scaled_gradients(dx, dy, scale)
     emap = _suppress(xs, ys, mag, low, high)
-    offs = np.array([-wp - 1, -wp, -wp + 1, -1, 1, wp - 1, wp, wp + 1], np.int64)
-    stack = np.empty(emap.size, np.int64)  # each pixel is pushed at most once
+    offs = np.array([-wp - 1, -wp, -wp + 1, -1, 1, wp - 1, wp, wp + 1], np.int32)
+    stack = np.empty(emap.size, np.int32)  # each pixel is pushed at most once
     n_small = 0
     for p0 in range(emap.size):
-        if emap[p0] == 0:
+        if emap[p0] != 2:  # components are grown from their strong pixels only
             continue
-        strong = emap[p0] == 2
         emap[p0] = 0
         stack[0] = p0
         top = 1
@@ -159,11 +160,10 @@ def _canny_small_objects(dx, dy, scale, low, high, a_px):
             for off in offs:
                 q = p + off
                 if emap[q] != 0:
-                    strong |= emap[q] == 2
                     emap[q] = 0
                     stack[top] = q
                     top += 1
-        if strong and size < a_px:
+        if size < a_px:
             n_small += 1
     return n_small
 
@@ -209,8 +209,8 @@ def _remove_small(m, a_px):
         base = (i + 1) * wp + 1
         for j in range(w):
             pad[base + j] = m[i, j] != 0
-    offs = np.array([-wp - 1, -wp, -wp + 1, -1, 1, wp - 1, wp, wp + 1], np.int64)
-    queue = np.empty(pad.size, np.int64)  # each pixel is queued once
+    offs = np.array([-wp - 1, -wp, -wp + 1, -1, 1, wp - 1, wp, wp + 1], np.int32)
+    queue = np.empty(pad.size, np.int32)  # each pixel is queued once
     removed = False
     for p0 in range(pad.size):
         if pad[p0] != 1:
