@@ -248,6 +248,15 @@ def remove_small_components_u8(m: np.ndarray, a_px: int) -> np.ndarray:
 
 
 @numba.njit(cache=True)
+def _add_moments(sums, k, i, j, cx, cy):
+    dx = j - cx[k]
+    dy = i - cy[k]
+    sums[0, k] += dx * dx
+    sums[1, k] += dy * dy
+    sums[2, k] += dx * dy
+
+
+@numba.njit(cache=True)
 def second_moment_sums(labels, cx, cy, n, boxes):
     """Per-label sums of ``dx²``, ``dy²`` and ``dx·dy`` about the centroids ``(cx, cy)``
     (n,) over the pixels of the (H, W) label image (label 0 skipped), each label's pixels
@@ -255,9 +264,7 @@ def second_moment_sums(labels, cx, cy, n, boxes):
     ``(left, top, width, height)`` (OpenCV's stats): when their areas add up to less than
     the image each label is summed inside its box, else in one pass over the image."""
     h, w = labels.shape
-    sxx = np.zeros(n)
-    syy = np.zeros(n)
-    sxy = np.zeros(n)
+    sums = np.zeros((3, n))
     box_area = 0
     for k in range(1, n):
         box_area += boxes[k, 2] * boxes[k, 3]
@@ -267,22 +274,13 @@ def second_moment_sums(labels, cx, cy, n, boxes):
             for i in range(y0, y0 + bh):
                 for j in range(x0, x0 + bw):
                     if labels[i, j] == k:
-                        dx = j - cx[k]
-                        dy = i - cy[k]
-                        sxx[k] += dx * dx
-                        syy[k] += dy * dy
-                        sxy[k] += dx * dy
-        return sxx, syy, sxy
-    for i in range(h):
-        for j in range(w):
-            k = labels[i, j]
-            if k > 0:
-                dx = j - cx[k]
-                dy = i - cy[k]
-                sxx[k] += dx * dx
-                syy[k] += dy * dy
-                sxy[k] += dx * dy
-    return sxx, syy, sxy
+                        _add_moments(sums, k, i, j, cx, cy)
+    else:
+        for i in range(h):
+            for j in range(w):
+                if labels[i, j] > 0:
+                    _add_moments(sums, labels[i, j], i, j, cx, cy)
+    return sums[0], sums[1], sums[2]
 
 
 @numba.njit(cache=True)
