@@ -46,6 +46,7 @@ import numpy as np
 from scipy.linalg import blas as _blas
 from scipy.linalg import lapack as _lapack
 
+from slam.estimators.aekf_kernels import count_misses
 from slam.estimators.base import UpdateResult
 from slam.estimators.jcbb import jcbb
 from slam.estimators.rb_model import association_scores, observe
@@ -69,6 +70,7 @@ __all__ = [
 ]
 
 _TWO_PI = 2.0 * math.pi
+_NO_COMPATIBLE = np.zeros(0, dtype=bool)
 
 
 def wrap_scalar(a: float) -> float:
@@ -1054,29 +1056,19 @@ class AEKFSlam:
         n = self.n_landmarks
         if (cfg.max_misses is None and cfg.provisional_misses is None) or n == 0:
             return assoc
-        lm = self.x[3:].reshape(n, 2)
-        d = lm - self.x[:2]
-        r = np.hypot(d[:, 0], d[:, 1])
-        b = np.abs(_wrap(np.arctan2(d[:, 1], d[:, 0]) - self.x[2]))
-        inside = (r < cfg.max_range_m - cfg.reduction_margin_m) & (
-            b < cfg.fov_half_angle_rad - math.radians(10.0)
-        )
         seen = np.zeros(n, dtype=bool)
         seen[assoc[assoc >= 0]] = True
-        self.misses[seen] = 0
-        miss = inside & ~seen
-        provisional = self.hits < 2
-        if compatible is not None:
-            excuse = compatible.copy()
-            if cfg.provisional_misses is not None:
-                excuse &= ~provisional[: compatible.size]
-            miss[: compatible.size] &= ~excuse
-        self.misses[miss] += 1
-        drop = np.zeros(n, dtype=bool)
-        if cfg.max_misses is not None:
-            drop |= self.misses >= cfg.max_misses
-        if cfg.provisional_misses is not None:
-            drop |= provisional & (self.misses >= cfg.provisional_misses)
+        drop = count_misses(
+            self.x,
+            seen,
+            _NO_COMPATIBLE if compatible is None else compatible,
+            self.hits,
+            self.misses,
+            cfg.max_range_m - cfg.reduction_margin_m,
+            cfg.fov_half_angle_rad - math.radians(10.0),
+            -1 if cfg.max_misses is None else cfg.max_misses,
+            -1 if cfg.provisional_misses is None else cfg.provisional_misses,
+        )
         if not np.any(drop):
             return assoc
         dropped = np.flatnonzero(drop)

@@ -58,24 +58,25 @@ def _chi2_limits(confidence: float, k: int) -> np.ndarray:
 
 def _pair_covariance(x, P, z, R, obs, lms):
     """Innovations ``(c, 2)`` and joint covariance ``(2c, 2c)`` of candidate pairs
-    ``(obs[a], lms[a])``: ``S_ab = H_a P H_bᵀ + [obs_a = obs_b] R``."""
+    ``(obs[a], lms[a])``: ``S_ab = H_a P H_bᵀ + [obs_a = obs_b] R``, from the 5 × 5
+    pose-and-landmark blocks of P (one gather, two batched products)."""
     c = obs.size
     zhat, Hv, Hm = observe(x, lms)
     nu = z[obs] - zhat
     nu[:, 1] = (nu[:, 1] + math.pi) % (2 * math.pi) - math.pi
     H = np.concatenate([Hv, Hm], axis=2)  # (c, 2, 5): pose columns, landmark columns
-    cols = np.concatenate(
-        [np.broadcast_to(np.arange(3), (c, 3)), 3 + 2 * lms[:, None] + np.arange(2)], axis=1
-    )  # (c, 5)
+    cols = np.empty((c, 5), dtype=np.intp)
+    cols[:, :3] = np.arange(3)
+    cols[:, 3] = 3 + 2 * lms
+    cols[:, 4] = 4 + 2 * lms
     flat = cols.reshape(-1)
-    Hb = np.zeros((c, 2, c, 5))  # block-diagonal H of the pairs, (2c, 5c)
-    ar = np.arange(c)
-    Hb[ar, :, ar, :] = H
-    Hb = Hb.reshape(2 * c, 5 * c)
-    S = Hb @ P[np.ix_(flat, flat)] @ Hb.T  # two small products, cheaper than a 3-way einsum
-    same = obs[:, None] == obs[None, :]
-    Rb = np.where(same[:, None, :, None], R[obs][:, :, None, :], 0.0)  # (c, 2, c, 2)
-    S = S + Rb.reshape(2 * c, 2 * c)
+    Psub = P[flat[:, None], flat[None, :]].reshape(c, 5, c, 5)
+    HP = np.einsum("aij,ajbk->aibk", H, Psub)  # (c, 2, c, 5)
+    S = np.einsum("aibk,blk->aibl", HP, H).reshape(2 * c, 2 * c)
+    for a in range(c):  # R on the blocks of pairs sharing an observation (c is a handful)
+        for b in range(c):
+            if obs[a] == obs[b]:
+                S[2 * a : 2 * a + 2, 2 * b : 2 * b + 2] += R[obs[a]]
     return nu.reshape(-1), 0.5 * (S + S.T)
 
 
@@ -115,7 +116,7 @@ def jcbb(
     R = np.asarray(R, dtype=float)
     R = np.broadcast_to(R, (k, 2, 2)) if R.shape == (2, 2) else R
     gate = _chi2_limits(confidence, 1)[0] if individual_gate is None else float(individual_gate)
-    nis, _ = association_scores(x, P, z, R)
+    nis, _ = association_scores(x, P, z, R, ml=False)
     pairs = np.full(k, -1, dtype=np.intp)
     obs, lms = np.nonzero(nis < gate)
     if obs.size == 0:

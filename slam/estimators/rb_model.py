@@ -53,12 +53,13 @@ def jacobians(d: np.ndarray):
     return Hv, Hm
 
 
-def association_scores(x, P, z, R, *, x_lin=None):
+def association_scores(x, P, z, R, *, x_lin=None, ml: bool = True):
     """Normalized innovation squared and ML distance of every observation to every landmark.
 
     Returns ``nis (k, n)`` = ``yᵀ S⁻¹ y`` and ``nd (k, n)`` = ``nis + ln det S`` (Bailey's
-    "normalised distance", the negative log-likelihood up to constants), vectorized: S of
-    all landmarks comes from the 5×5 vehicle-landmark blocks of P in one batched product.
+    "normalised distance", the negative log-likelihood up to constants; None with
+    ``ml=False``), vectorized: S of all landmarks comes from the 5×5 vehicle-landmark
+    blocks of P in one batched product.
     """
     x = np.asarray(x, dtype=float)
     P = np.asarray(P, dtype=float)
@@ -85,7 +86,7 @@ def association_scores(x, P, z, R, *, x_lin=None):
     a, b, d = S[..., 0, 0], 0.5 * (S[..., 0, 1] + S[..., 1, 0]), S[..., 1, 1]
     det = a * d - b * b
     nis = (d * y[..., 0] ** 2 - 2.0 * b * y[..., 0] * y[..., 1] + a * y[..., 1] ** 2) / det
-    return nis, nis + np.log(det)
+    return nis, (nis + np.log(det) if ml else None)
 
 
 def inv2(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -7,7 +7,8 @@ returns a :class:`SegmentationResult`.
 Improved Otsu TSM, step by step:
 
 1. power-law transform ``y = c·x^r`` (c = 0.1, r = 1.415) of the 8-bit image (eq. 3.11);
-2. traditional Otsu threshold ``T`` of ``y`` (OpenCV ``THRESH_OTSU``); ``b = y > T``;
+2. traditional Otsu threshold ``T`` of ``y`` (OpenCV's ``THRESH_OTSU`` formula on the
+   histogram that step 5 reuses, :func:`.kernels.otsu_from_hist`); ``b = y > T``;
 3. Canny edges of ``b`` (Algorithm 1): 3×3 Gaussian with σ = 0.5, 2×2 finite-difference
    gradient, non-maximum suppression and hysteresis with the high threshold a fraction
    of the maximum gradient magnitude (MATLAB's ``edge(b, 'canny', high)`` convention) and
@@ -45,6 +46,7 @@ import numpy as np
 
 from .image import as_gray8
 from .kapur import kapur_threshold_hist
+from .kernels import otsu_from_hist, small_edge_objects
 from .otsu import gray_histogram, otsu_threshold, otsu_threshold_hist, power_law
 from .presets import SegmentationParams, get_preset
 from .regions import Region, RegionFilter, cc_stats_compact, extract_regions, morphology_chain
@@ -56,6 +58,7 @@ __all__ = [
     "count_small_contours",
     "improved_otsu",
     "segment",
+    "smoothed_gradients",
 ]
 
 METHODS: tuple[str, ...] = ("improved-otsu", "otsu", "local", "isodata", "kapur")
@@ -141,6 +144,25 @@ class SegmentationResult:
         return d
 
 
+def smoothed_gradients(
+    binary: np.ndarray, sigma: float = 0.5, ksize: int = 3
+) -> tuple[np.ndarray, np.ndarray]:
+    """float32 ``(dx, dy)`` of Algorithm 1 before non-maximum suppression: Gaussian
+    ``ksize × ksize`` smoothing with ``sigma`` (replicated border), then the 2 × 2 first
+    differences (see :func:`canny_edges`). A bool or 0/1 ``uint8`` mask is smoothed
+    straight from its bytes; any other numeric image as float32."""
+    f = np.asarray(binary)
+    if f.dtype == np.bool_:
+        f = f.view(np.uint8)
+    elif f.dtype != np.uint8:
+        f = f.astype(np.float32)
+    k = cv2.getGaussianKernel(ksize, sigma, cv2.CV_32F)
+    g = cv2.sepFilter2D(f, cv2.CV_32F, k, k, borderType=cv2.BORDER_REPLICATE)
+    dx = cv2.filter2D(g, cv2.CV_32F, _DIFF_X, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)
+    dy = cv2.filter2D(g, cv2.CV_32F, _DIFF_Y, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)
+    return dx, dy
+
+
 def canny_edges(
     binary: np.ndarray,
     high: float,
@@ -167,18 +189,10 @@ def canny_edges(
     two-pixel plateau, which OpenCV's strict diagonal non-maximum test removes entirely,
     so small speckle would go uncounted; the 2 × 2 difference has no such plateau.)
     """
-    f = np.asarray(binary)
-    if f.dtype == np.bool_:
-        f = f.view(np.uint8)
-    elif f.dtype != np.uint8:
-        f = f.astype(np.float32)
-    k = cv2.getGaussianKernel(ksize, sigma, cv2.CV_32F)
-    g = cv2.sepFilter2D(f, cv2.CV_32F, k, k, borderType=cv2.BORDER_REPLICATE)
-    dx = cv2.filter2D(g, cv2.CV_32F, _DIFF_X, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)
-    dy = cv2.filter2D(g, cv2.CV_32F, _DIFF_Y, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)
+    dx, dy = smoothed_gradients(binary, sigma, ksize)
     mmax = cv2.minMaxLoc(cv2.magnitude(dx, dy))[1]
     if mmax <= 0.0:
-        return np.zeros(f.shape, dtype=np.uint8)
+        return np.zeros(dx.shape, dtype=np.uint8)
     scale = _GRAD_SCALE / mmax
     dxi = cv2.multiply(dx, scale, dtype=cv2.CV_16S)
     dyi = cv2.multiply(dy, scale, dtype=cv2.CV_16S)
@@ -293,19 +307,21 @@ def improved_otsu(
     p = _resolve_params(params, gray8.shape)
     t_start = time.perf_counter()
     y = power_law(gray8, p.power_c, p.power_r)
-    lo, hi = int(y.min()), int(y.max())
+    hist = gray_histogram(y)  # exact counts below 2**24 pixels (float32 in OpenCV)
+    occupied = np.flatnonzero(hist)
+    lo, hi = int(occupied[0]), int(occupied[-1])
     if lo == hi:
         return _constant_result("improved-otsu", p, gray8, lo, region_filter)
-    t = otsu_threshold(y)
+    t = otsu_from_hist(hist) if y.size < 2**24 else otsu_threshold(y)
     b = _above(y, t)
     t1 = time.perf_counter()
-    edges = canny_edges(b, p.canny_high, p.canny_low_ratio, p.gaussian_sigma, p.gaussian_ksize)
-    n_a = count_small_contours(edges, p.a_px)
+    dx, dy = smoothed_gradients(b, p.gaussian_sigma, p.gaussian_ksize)
+    n_a = small_edge_objects(dx, dy, p.canny_high, p.canny_low_ratio, p.a_px)
     t2 = time.perf_counter()
     retriggered = n_a > p.n_max
     t_star = t
     if retriggered:
-        ts, _ = otsu_threshold_hist(gray_histogram(y), lo=t + 1) if t < 255 else (t, 0.0)
+        ts, _ = otsu_threshold_hist(hist, lo=t + 1) if t < 255 else (t, 0.0)
         t_star = ts if ts > t else t
         b = _above(y, t_star)
     t3 = time.perf_counter()

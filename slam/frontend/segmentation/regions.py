@@ -10,9 +10,10 @@ Algorithm 2 (thesis ch. 3.4.1), MATLAB functions it names in brackets:
 5. area, centroid and bounding box of each 8-connected region (``regionprops``);
 6. the centroids form the landmark list.
 
-OpenCV does steps 1, 3, 4 and 5 (``connectedComponentsWithStats``, ``dilate``,
-``floodFill``). ``bridge`` is in neither OpenCV nor scikit-image, so it is a 512-entry 3×3
-look-up table built here from MATLAB's documented rule — "sets 0-valued pixels to 1 if
+OpenCV does steps 3 and 5 (``dilate``, ``connectedComponentsWithStats``); steps 1 and 4
+and the second moments of step 5 are compiled passes (:mod:`.kernels`, tested equal to
+``connectedComponentsWithStats`` and ``floodFill``). ``bridge`` is in neither OpenCV nor
+scikit-image, so it is a 512-entry 3×3 look-up table built here from MATLAB's documented rule — "sets 0-valued pixels to 1 if
 they have two nonzero neighbours that are not connected" — which yields 123 patterns;
 MATLAB's own table (as reproduced by GNU Octave's image package, which documents 119
 patterns) additionally leaves alone the four patterns made of exactly two corners on the
@@ -31,6 +32,8 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
+
+from .kernels import fill_holes_u8, remove_small_components_u8, second_moment_sums
 
 __all__ = [
     "Region",
@@ -198,17 +201,12 @@ def _as_u8(mask: np.ndarray) -> np.ndarray:
 
 
 def remove_small_components(mask: np.ndarray, a_px: int) -> np.ndarray:
-    """Step 1: drop 8-connected components with fewer than ``a_px`` pixels (``bwareaopen``).
-    Returns a 0/1 ``uint8`` mask."""
+    """Step 1: drop 8-connected components with fewer than ``a_px`` pixels (``bwareaopen``;
+    one compiled breadth-first pass, :mod:`.kernels`). Returns a 0/1 ``uint8`` mask."""
     m = _as_u8(mask)
     if a_px <= 1:
         return m
-    _n, labels, stats, _ = cc_stats_compact(m)
-    keep = stats[:, cv2.CC_STAT_AREA] >= a_px
-    keep[0] = False
-    if keep[1:].all():
-        return m
-    return np.take(keep.view(np.uint8), labels)
+    return remove_small_components_u8(m, a_px)
 
 
 def _bridge_rule(pattern: np.ndarray) -> bool:
@@ -269,11 +267,9 @@ def bridge(mask: np.ndarray) -> np.ndarray:
 
 def fill_holes(mask: np.ndarray) -> np.ndarray:
     """Step 4: fill holes (``imfill(mask, 'holes')``): background pixels that cannot be
-    reached from outside the image through 4-connected background become 1."""
-    m = _as_u8(mask)
-    padded = cv2.copyMakeBorder(m, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
-    cv2.floodFill(padded, None, (0, 0), 2, flags=4)
-    return np.not_equal(padded[1:-1, 1:-1], 2).view(np.uint8)
+    reached from outside the image through 4-connected background become 1 (background
+    runs joined row to row, :func:`.kernels.fill_holes_u8`)."""
+    return fill_holes_u8(_as_u8(mask))
 
 
 def morphology_chain(mask: np.ndarray, a_px: int, dilate_iterations: int = 1) -> np.ndarray:
@@ -287,53 +283,23 @@ def morphology_chain(mask: np.ndarray, a_px: int, dilate_iterations: int = 1) ->
     return fill_holes(m)
 
 
-#: up to this many regions, second moments are summed inside each bounding box
-_FEW_REGIONS = 64
-
-
-def _second_moments_by_region(labels, stats, cx, cy, n):
-    """Per-label sums of dx², dy², dx·dy about the centroid, each label's pixels taken in
-    raster order inside its bounding box: the same values in the same summation order as
-    one ``np.bincount`` over the whole image (bit-identical), without a pass over it."""
-    out = np.zeros((3, n))
-    for k in range(1, n):
-        x0, y0, w, h = (int(v) for v in stats[k, :4])
-        rr, cc = np.nonzero(labels[y0 : y0 + h, x0 : x0 + w] == k)
-        dx = (cc + x0) - cx[k]
-        dy = (rr + y0) - cy[k]
-        zero = np.zeros(dx.size, dtype=np.intp)
-        out[0, k] = np.bincount(zero, weights=dx * dx, minlength=1)[0]
-        out[1, k] = np.bincount(zero, weights=dy * dy, minlength=1)[0]
-        out[2, k] = np.bincount(zero, weights=dx * dy, minlength=1)[0]
-    return out[0], out[1], out[2]
-
-
 def extract_regions(mask: np.ndarray) -> tuple[tuple[Region, ...], np.ndarray]:
     """Step 5: the 8-connected regions of ``mask`` and the (H, W) int32 label image.
 
     Area, centroid and bounding box come from OpenCV; the second moments (axis lengths)
-    from per-label sums over the foreground pixels (``np.bincount`` over the image, or
-    inside each bounding box when there are few regions — the same sums).
+    from per-label sums over the foreground pixels in raster order, one compiled pass
+    (:func:`.kernels.second_moment_sums`, the sums ``np.bincount`` forms).
     """
     m = _as_u8(mask)
-    n, labels, stats, centroids = cc_stats(m)
+    n, labels, stats, centroids = cc_stats_compact(m)
+    labels = labels.astype(np.int32, copy=False)
     if n <= 1:
         return (), labels
     area = stats[:, cv2.CC_STAT_AREA].astype(np.float64)
     area_div = np.maximum(area, 1.0)  # label 0 (background) may be empty
     cx = centroids[:, 0]
     cy = centroids[:, 1]
-    if n - 1 <= _FEW_REGIONS:
-        sxx, syy, sxy = _second_moments_by_region(labels, stats, cx, cy, n)
-    else:
-        flat = np.flatnonzero(m)
-        lab = labels.ravel()[flat]
-        rows, cols = np.divmod(flat, m.shape[1])
-        dx = cols - cx[lab]
-        dy = rows - cy[lab]
-        sxx = np.bincount(lab, weights=dx * dx, minlength=n)
-        syy = np.bincount(lab, weights=dy * dy, minlength=n)
-        sxy = np.bincount(lab, weights=dx * dy, minlength=n)
+    sxx, syy, sxy = second_moment_sums(labels, cx, cy, n, stats)
     sxx = sxx / area_div
     syy = syy / area_div
     sxy = sxy / area_div
