@@ -22,6 +22,7 @@ here.
 from __future__ import annotations
 
 from dataclasses import dataclass
+
 import numpy as np
 
 from slam.estimators.jcbb import chi2_limits, jcbb_search
