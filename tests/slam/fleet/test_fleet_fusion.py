@@ -222,3 +222,31 @@ def test_bad_input_names_the_field():
         FleetFusionConfig(confidence=1.5)
     with pytest.raises(ValueError, match=r"assignment\[0\] must hold 1 indices"):
         solve_fused([VehicleMap(np.zeros(5), np.eye(5))], [np.array([0, 1])])
+
+
+def test_fusion_does_not_make_a_vehicles_pose_worse_than_its_own_map():
+    """Known frames (the scenario's case), 40 generated pairs of maps sharing 6 of their
+    landmarks, each map a draw of its own covariance (shared navigation error): the fused
+    pose of each vehicle is closer to the truth on average than the vehicle's own (the
+    other map adds information through the shared landmarks), and its NEES averages 3
+    (inside the 99 % interval of the mean of 40 χ²(3) draws)."""
+    own, fused_err, nees = np.zeros((2, 40)), np.zeros((2, 40)), []
+    for s in range(40):
+        rng = np.random.default_rng(300 + s)
+        L = _landmarks(rng, 14)
+        poses = [np.array([-30.0, 20.0, 0.1]), np.array([30.0, -10.0, 0.5])]
+        a = _make_map(rng, np.zeros(3), poses[0], L[:10], "A")
+        b = _make_map(rng, np.zeros(3), poses[1], L[4:], "B")
+        f = fuse_maps([a, b])
+        paired = np.nonzero(f.assignment[1] < 10)[0]  # B's landmarks paired with A's
+        np.testing.assert_array_equal(f.assignment[1][paired], paired + 4)  # never wrongly
+        assert f.n_paired >= 4
+        for k, (mp, p) in enumerate(zip((a, b), poses, strict=True)):
+            own[k, s] = np.sum((mp.x[:2] - p[:2]) ** 2)
+            fused_err[k, s] = np.sum((f.poses[k, :2] - p[:2]) ** 2)
+            d = f.poses[k] - p
+            d[2] = (d[2] + math.pi) % (2 * math.pi) - math.pi
+            nees.append(d @ np.linalg.solve(f.pose_cov[k], d))
+    assert np.all(fused_err.mean(axis=1) < own.mean(axis=1))
+    lo, hi = chi2.ppf([0.005, 0.995], 3 * 80) / 80
+    assert lo < np.mean(nees) < hi
