@@ -37,6 +37,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.optimize import minimize
 
 from slam.fleet.association import pair_maps
 from slam.fleet.maps import FleetFusionConfig, FusedMap, GpsFix, VehicleMap, to_world
@@ -107,4 +108,26 @@ def fuse_maps(
             n_paired=n_paired,
             n_ambiguous=n_ambiguous,
         )
+    if cfg.cross_correlation == "unknown" and len(maps) > 1:
+        fused = _intersect(maps, assignment, gps, cfg, n_paired, n_ambiguous)
     return fused
+
+
+def _intersect(maps, assignment, gps, cfg, n_paired, n_ambiguous) -> FusedMap:
+    """Covariance intersection of the associated maps: weights ``softmax(u)`` minimizing
+    the trace of the fused landmark covariance (Nelder–Mead over K − 1 numbers, K small)."""
+
+    def solve(u):
+        w = np.exp(np.r_[0.0, u] - np.max(np.r_[0.0, u]))
+        w = np.clip(w / w.sum(), 1e-6, 1.0)
+        return solve_fused(
+            maps, assignment, gps, cfg, n_paired=n_paired, n_ambiguous=n_ambiguous, weights=w
+        )
+
+    def cost(u):
+        return float(np.trace(solve(u).landmark_cov, axis1=1, axis2=2).sum())
+
+    res = minimize(
+        cost, np.zeros(len(maps) - 1), method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-9}
+    )
+    return solve(res.x)

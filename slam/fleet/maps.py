@@ -95,17 +95,27 @@ class GpsFix:
 @dataclass(frozen=True)
 class FleetFusionConfig:
     """``confidence``: χ² quantile of the joint-compatibility test between maps;
-    ``max_nodes``: JCBB search budget; ``iterations``/``tolerance``: Gauss–Newton (stop when
+    ``cross_correlation``: ``"independent"`` (the maps' errors are independent: the exact
+    MAP) or ``"unknown"`` (covariance intersection, Julier and Uhlmann 1997: each map's
+    information scaled by a weight, the weights summing to 1 and chosen to minimize the
+    trace of the fused landmarks' covariance; consistent whatever the maps' errors share,
+    at the price of larger covariances); ``max_nodes``: JCBB search budget; ``iterations``/``tolerance``: Gauss–Newton (stop when
     the largest step is below ``tolerance``, m or rad); ``jitter``: relative diagonal added
     to each map covariance before whitening (a filter's P can be singular to rounding)."""
 
     confidence: float = 0.99
+    cross_correlation: str = "independent"
     max_nodes: int = 20000
     iterations: int = 50
     tolerance: float = 1e-10
     jitter: float = 1e-10
 
     def __post_init__(self) -> None:
+        if self.cross_correlation not in ("independent", "unknown"):
+            raise ValueError(
+                "cross_correlation must be 'independent' or 'unknown', "
+                f"got {self.cross_correlation!r}"
+            )
         if not 0.0 < self.confidence < 1.0:
             raise ValueError(f"confidence must be in (0, 1), got {self.confidence!r}")
         if not (isinstance(self.iterations, int) and self.iterations >= 1):

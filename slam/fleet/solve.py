@@ -32,15 +32,18 @@ class _Layout:
         return theta[self.fcol[k] : self.fcol[k] + 3] if self.fcol[k] >= 0 else maps[k].frame
 
 
-def _whiteners(maps, gps, jitter):
+def _whiteners(maps, gps, jitter, weights=None):
+    """Whitening matrices of the maps (scaled by ``sqrt(weights[k])``: covariance
+    intersection), the frame priors and the fixes."""
     out = []
-    for mp in maps:
+    w = np.ones(len(maps)) if weights is None else np.asarray(weights, float)
+    for mp, wk in zip(maps, w, strict=True):
         P = mp.P + np.eye(mp.P.shape[0]) * jitter * max(1.0, float(np.trace(mp.P)) / mp.P.shape[0])
         try:
             L = np.linalg.cholesky(P)
         except np.linalg.LinAlgError as exc:
             raise ValueError(f"map {mp.name!r}: P is not positive definite") from exc
-        out.append(np.linalg.inv(L))
+        out.append(math.sqrt(wk) * np.linalg.inv(L))
     priors = [
         None if mp.frame_cov is None else np.linalg.inv(np.linalg.cholesky(mp.frame_cov))
         for mp in maps
@@ -126,9 +129,12 @@ def solve_fused(
     *,
     n_paired: int = 0,
     n_ambiguous: int = 0,
+    weights: Sequence[float] | None = None,
 ) -> FusedMap:
     """The MAP fused map for a given association: ``assignment[k] (m_k,)`` the fused
-    landmark index (0..M-1, every index used) of each landmark of map k."""
+    landmark index (0..M-1, every index used) of each landmark of map k. ``weights (K,)``:
+    each map's information scaled by ``weights[k]`` in (0, 1] (covariance intersection
+    when they sum to 1; default all 1: independent maps)."""
     cfg = config or FleetFusionConfig()
     maps = list(maps)
     if not maps:
@@ -152,7 +158,11 @@ def solve_fused(
         if not 0 <= f.vehicle < len(maps):
             raise ValueError(f"GpsFix.vehicle {f.vehicle} out of range 0..{len(maps) - 1}")
     lay = _Layout(maps, M)
-    W = _whiteners(maps, gps, cfg.jitter)
+    if weights is not None:
+        weights = np.asarray(weights, float).reshape(-1)
+        if weights.shape != (len(maps),) or not np.all((weights > 0) & (weights <= 1)):
+            raise ValueError(f"weights must be {len(maps)} numbers in (0, 1], got {weights!r}")
+    W = _whiteners(maps, gps, cfg.jitter, weights)
     theta = _initial(maps, assignment, M, lay)
     for _ in range(cfg.iterations):  # Gauss–Newton; converges in a few steps
         r, J = _residuals(theta, maps, assignment, gps, lay, W)

@@ -250,3 +250,38 @@ def test_fusion_does_not_make_a_vehicles_pose_worse_than_its_own_map():
     assert np.all(fused_err.mean(axis=1) < own.mean(axis=1))
     lo, hi = chi2.ppf([0.005, 0.995], 3 * 80) / 80
     assert lo < np.mean(nees) < hi
+
+
+def test_covariance_intersection_stays_consistent_when_the_maps_share_errors():
+    """Two maps of the same 8 landmarks whose errors share a common part (each map alone is
+    consistent: its covariance holds the common and its own part). Fusing them as
+    independent counts the common part twice: the fused landmark NEES averages well above 2;
+    with ``cross_correlation="unknown"`` (covariance intersection) it stays at or below 2."""
+    indep, ci = [], []
+    for s in range(30):
+        rng = np.random.default_rng(500 + s)
+        L = _landmarks(rng, 8)
+        n = 3 + 2 * len(L)
+        Cc = np.diag(np.r_[0.05, 0.05, 1e-4, np.full(2 * len(L), 0.8**2)])  # shared
+        Ci = _map_cov(np.vstack([[0.0, 0.0], L]), sigma_l=0.3, common=(0.1, 0.1, 0.002))
+        common = np.linalg.cholesky(Cc) @ rng.standard_normal(n)
+        maps = []
+        for k, pose in enumerate(([-30.0, 20.0, 0.1], [30.0, -10.0, 0.5])):
+            x_true = np.r_[pose, L.ravel()]
+            x = x_true + common + np.linalg.cholesky(Ci) @ rng.standard_normal(n)
+            maps.append(VehicleMap(x, Cc + Ci, f"v{k}"))
+        for cfg, out in (
+            (FleetFusionConfig(), indep),
+            (FleetFusionConfig(cross_correlation="unknown"), ci),
+        ):
+            f = fuse_maps(maps, config=cfg)
+            assert f.n_landmarks == len(L)  # all paired
+            d = f.landmarks[f.assignment[0]] - L
+            out.append(
+                np.mean(
+                    np.einsum("ni,nij,nj->n", d, np.linalg.inv(f.landmark_cov[f.assignment[0]]), d)
+                )
+            )
+    hi = chi2.ppf(0.99, 2 * 30) / 30  # the mean of 30 independent NEES draws
+    assert np.mean(indep) > hi
+    assert np.mean(ci) < hi
