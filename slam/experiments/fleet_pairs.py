@@ -6,6 +6,7 @@ model (independent Gaussian maps) is exact except for how well each filter's cov
 describes its own errors.
 
     python -m slam.experiments.fleet_pairs [--pairs 6] [--loops 1] [--dt 0.025] [--seed 1000]
+        [--cross-correlation independent|unknown]
 
 Prints per pair: landmarks paired, χ²/dof of the fusion, each map's landmark RMSE (m) and
 landmark NEES, the fused map's, and the correlation of the two maps' landmark errors; at
@@ -21,7 +22,7 @@ import numpy as np
 
 from slam.estimators import make_estimator
 from slam.experiments.runner import EXPERIMENT_AEKF_DEFAULTS, get_experiment
-from slam.fleet import fuse_maps, vehicle_map_from
+from slam.fleet import FleetFusionConfig, fuse_maps, vehicle_map_from
 from slam.sim2d import simulate_run
 
 
@@ -49,11 +50,11 @@ def _pose_nees(x, P, t) -> tuple[float, float]:
     return float(np.hypot(*d[:2])), float(d @ np.linalg.solve(P, d))
 
 
-def fleet_pair(spec, seeds: tuple[int, int]) -> dict:
+def fleet_pair(spec, seeds: tuple[int, int], cross_correlation: str = "independent") -> dict:
     """Fuse the maps of runs ``seeds``; errors and NEES against the truth."""
     vs = [_vehicle(spec, s) for s in seeds]
     maps = [vehicle_map_from(e, f"v{k}")[0] for k, (e, _) in enumerate(vs)]
-    f = fuse_maps(maps)
+    f = fuse_maps(maps, config=FleetFusionConfig(cross_correlation=cross_correlation))
     truth = np.full((f.n_landmarks, 2), np.nan)
     out = {"paired": f.n_paired, "chi2": f.chi2, "dof": f.dof, "own": [], "pose": []}
     errs = []
@@ -96,6 +97,9 @@ def main(argv=None) -> int:
     ap.add_argument("--loops", type=int, default=1)
     ap.add_argument("--dt", type=float, default=0.025)
     ap.add_argument("--seed", type=int, default=1000)
+    ap.add_argument(
+        "--cross-correlation", choices=("independent", "unknown"), default="independent"
+    )
     a = ap.parse_args(argv)
     if a.pairs < 1 or a.loops < 1:
         print("fleet_pairs: --pairs and --loops must be >= 1", file=sys.stderr)
@@ -103,7 +107,7 @@ def main(argv=None) -> int:
     spec = get_experiment("dense-loop", dt=a.dt, n_loops=a.loops)
     rows = []
     for p in range(a.pairs):  # one pair of full runs each (seconds)
-        r = fleet_pair(spec, (a.seed + 2 * p, a.seed + 2 * p + 1))
+        r = fleet_pair(spec, (a.seed + 2 * p, a.seed + 2 * p + 1), a.cross_correlation)
         rows.append(r)
         print(
             f"pair {p}: paired {r['paired']}, chi2/dof {r['chi2']:.1f}/{r['dof']}, own RMSE/NEES "
