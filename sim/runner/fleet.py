@@ -14,10 +14,14 @@ from __future__ import annotations
 import numpy as np
 
 from sim.runner.metrics import landmark_metrics, match_landmarks
-from slam.fleet import FusedMap, GpsFix, VehicleMap, fuse_maps, vehicle_map_from
+from slam.fleet import FleetFusionConfig, FusedMap, GpsFix, VehicleMap, fuse_maps, vehicle_map_from
 
 #: a fix counts as taken at hand-over when it is this close to the end of the run, s
 HANDOVER_FIX_S = 1.0
+
+#: the vehicles' maps are fused by covariance intersection: fused as independent, AEKF
+#: maps of one area come out overconfident (docs/fleet_map.md, "Overconfidence")
+FUSION = FleetFusionConfig(cross_correlation="unknown")
 
 
 def _surface_fix(v, i: int, t_end: float) -> GpsFix | None:
@@ -54,7 +58,7 @@ def fleet_map(run, inputs_to=None) -> tuple[FusedMap | None, dict | None]:
     true_poses = np.array([np.asarray(v.true_pose[-1])[[0, 1, 3]] for v in slam_vehicles])
     if inputs_to is not None:
         save_fleet_inputs(inputs_to, maps, gps, true_poses, truth)
-    fused = fuse_maps(maps, gps)
+    fused = fuse_maps(maps, gps, FUSION)
     lm = landmark_metrics(fused.landmarks, fused.landmark_cov, truth)
     lm["n_objects_imaged"] = len(idx)
     poses, own, moved, nees = {}, {}, {}, {}
@@ -74,6 +78,7 @@ def fleet_map(run, inputs_to=None) -> tuple[FusedMap | None, dict | None]:
     per_object = _per_object(fused, truth, [objs[k] for k in idx], members)
     metrics = {
         "vehicles": [v.spec.name for v in slam_vehicles],
+        "cross_correlation": FUSION.cross_correlation,
         "gps_anchored": [slam_vehicles[f.vehicle].spec.name for f in gps],
         "approximate_covariance": [
             v.spec.name for v, j in zip(slam_vehicles, joint, strict=True) if not j

@@ -114,12 +114,19 @@ def fuse_maps(
 
 
 def _intersect(maps, assignment, gps, cfg, n_paired, n_ambiguous) -> FusedMap:
-    """Covariance intersection of the associated maps: weights ``softmax(u)`` minimizing
-    the trace of the fused landmark covariance (Nelder–Mead over K − 1 numbers, K small)."""
+    """Covariance intersection of the maps that share a fused landmark with another map:
+    their weights ``softmax(u)`` minimize the trace of the fused landmark covariance
+    (Nelder–Mead over their number − 1, few); a map that shares nothing keeps weight 1
+    (nothing of it is combined with another map)."""
+    counts = np.bincount(np.concatenate(assignment), minlength=1)
+    linked = np.array([bool(a.size) and bool((counts[a] > 1).any()) for a in assignment])
+    if linked.sum() < 2:
+        return solve_fused(maps, assignment, gps, cfg, n_paired=n_paired, n_ambiguous=n_ambiguous)
 
     def solve(u):
-        w = np.exp(np.r_[0.0, u] - np.max(np.r_[0.0, u]))
-        w = np.clip(w / w.sum(), 1e-6, 1.0)
+        e = np.exp(np.r_[0.0, u] - np.max(np.r_[0.0, u]))
+        w = np.ones(len(maps))
+        w[linked] = np.clip(e / e.sum(), 1e-6, 1.0)
         return solve_fused(
             maps, assignment, gps, cfg, n_paired=n_paired, n_ambiguous=n_ambiguous, weights=w
         )
@@ -128,6 +135,9 @@ def _intersect(maps, assignment, gps, cfg, n_paired, n_ambiguous) -> FusedMap:
         return float(np.trace(solve(u).landmark_cov, axis1=1, axis2=2).sum())
 
     res = minimize(
-        cost, np.zeros(len(maps) - 1), method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-9}
+        cost,
+        np.zeros(int(linked.sum()) - 1),
+        method="Nelder-Mead",
+        options={"xatol": 1e-3, "fatol": 1e-9},
     )
     return solve(res.x)

@@ -285,3 +285,23 @@ def test_covariance_intersection_stays_consistent_when_the_maps_share_errors():
     hi = chi2.ppf(0.99, 2 * 30) / 30  # the mean of 30 independent NEES draws
     assert np.mean(indep) > hi
     assert np.mean(ci) < hi
+
+
+def test_covariance_intersection_leaves_a_map_that_shares_nothing_as_it_is():
+    rng = np.random.default_rng(9)
+    a, b, _ = _two_maps(seed=9)
+    lone = _make_map(
+        rng, np.zeros(3), np.array([300.0, 300.0, 0.0]), np.array([[320.0, 310.0]]), "C"
+    )
+    f = fuse_maps([a, b, lone], config=FleetFusionConfig(cross_correlation="unknown"))
+    np.testing.assert_allclose(f.pose_cov[2], lone.P[:3, :3], rtol=1e-4, atol=1e-12)
+    np.testing.assert_allclose(
+        f.landmark_cov[f.assignment[2][0]], lone.P[3:, 3:], rtol=1e-4, atol=1e-12
+    )
+    # the two linked maps are intersected: weights below 1 widen their shared landmarks
+    g = fuse_maps([a, b, lone])
+    shared = f.assignment[1][:9]
+    assert np.all(
+        np.trace(f.landmark_cov[shared], axis1=1, axis2=2)
+        > np.trace(g.landmark_cov[shared], axis1=1, axis2=2)
+    )
