@@ -115,8 +115,8 @@ def fuse_maps(
 
 def _intersect(maps, assignment, gps, cfg, n_paired, n_ambiguous) -> FusedMap:
     """Covariance intersection of the maps that share a fused landmark with another map:
-    their weights ``softmax(u)`` minimize the trace of the fused landmark covariance
-    (Nelder–Mead over their number − 1, few); a map that shares nothing keeps weight 1
+    their weights ``softmax(u)`` minimize the trace of the covariance of every fused
+    position, landmarks and vehicles (Nelder–Mead over their number − 1, few); a map that shares nothing keeps weight 1
     (nothing of it is combined with another map)."""
     counts = np.bincount(np.concatenate(assignment), minlength=1)
     linked = np.array([bool(a.size) and bool((counts[a] > 1).any()) for a in assignment])
@@ -131,8 +131,12 @@ def _intersect(maps, assignment, gps, cfg, n_paired, n_ambiguous) -> FusedMap:
             maps, assignment, gps, cfg, n_paired=n_paired, n_ambiguous=n_ambiguous, weights=w
         )
 
-    def cost(u):
-        return float(np.trace(solve(u).landmark_cov, axis1=1, axis2=2).sum())
+    def cost(u):  # m²: every fused position, landmarks and vehicles
+        f = solve(u)
+        return float(
+            np.trace(f.landmark_cov, axis1=1, axis2=2).sum()
+            + np.trace(f.pose_cov[:, :2, :2], axis1=1, axis2=2).sum()
+        )
 
     res = minimize(
         cost,

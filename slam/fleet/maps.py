@@ -98,9 +98,10 @@ class FleetFusionConfig:
     ``cross_correlation``: ``"independent"`` (the maps' errors are independent: the exact
     MAP) or ``"unknown"`` (covariance intersection, Julier and Uhlmann 1997: each map's
     information scaled by a weight, the weights summing to 1 and chosen to minimize the
-    trace of the fused landmarks' covariance; consistent whatever the maps' errors share,
-    at the price of larger covariances); ``max_nodes``: JCBB search budget; ``iterations``/``tolerance``: Gauss–Newton (stop when
-    the largest step is below ``tolerance``, m or rad); ``jitter``: relative diagonal added
+    trace of the covariance of the fused positions (landmarks and vehicles); consistent
+    whatever the maps' errors share, at the price of larger covariances); ``max_nodes``:
+    JCBB search budget; ``iterations``/``tolerance``: Gauss–Newton (stop when the largest
+    step is below ``tolerance``, m or rad); ``jitter``: relative diagonal added
     to each map covariance before whitening (a filter's P can be singular to rounding)."""
 
     confidence: float = 0.99
