@@ -142,7 +142,7 @@ def run_scenario(
     fused = None
     if error is None:
         try:
-            fused, fleet = fleet_map(run)
+            fused, fleet = fleet_map(run, inputs_to=out.path("fleet_maps.npz"))
         except Exception as exc:  # the fused map must not lose the vehicles' metrics
             fused, fleet = None, None
             metrics["fleet_error"] = f"{type(exc).__name__}: {exc}"

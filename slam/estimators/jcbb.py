@@ -28,7 +28,7 @@ from scipy.stats import chi2
 
 from slam.estimators.rb_model import association_scores, observe
 
-__all__ = ["JCBBResult", "jcbb"]
+__all__ = ["JCBBResult", "chi2_limits", "jcbb", "jcbb_search"]
 
 
 class JCBBResult:
@@ -49,7 +49,7 @@ class JCBBResult:
 
 
 @lru_cache(maxsize=64)
-def _chi2_limits(confidence: float, k: int) -> np.ndarray:
+def chi2_limits(confidence: float, k: int) -> np.ndarray:
     """``chi2.ppf(confidence, 2 p)`` for p = 1..k (cached: scipy's ppf costs ~80 µs)."""
     out = chi2.ppf(confidence, 2 * np.arange(1, k + 1))
     out.setflags(write=False)
@@ -115,13 +115,13 @@ def jcbb(
     k = z.shape[0]
     R = np.asarray(R, dtype=float)
     R = np.broadcast_to(R, (k, 2, 2)) if R.shape == (2, 2) else R
-    gate = _chi2_limits(confidence, 1)[0] if individual_gate is None else float(individual_gate)
+    gate = chi2_limits(confidence, 1)[0] if individual_gate is None else float(individual_gate)
     nis, _ = association_scores(x, P, z, R, ml=False)
     pairs = np.full(k, -1, dtype=np.intp)
     obs, lms = np.nonzero(nis < gate)
     if obs.size == 0:
         return JCBBResult(pairs, 0.0, nis, 0, True)
-    limits = _chi2_limits(confidence, max(k, 1))
+    limits = chi2_limits(confidence, max(k, 1))
     if obs.size == 1 and gate <= limits[0]:
         # one candidate pair (most scans): its joint test is its individual test, passed
         pairs[obs] = lms
@@ -135,18 +135,41 @@ def jcbb(
         if d2 < limits[obs.size - 1]:
             pairs[obs] = lms
             return JCBBResult(pairs, d2, nis, 1, True)
-    # candidate pair ids of each observation, best individual NIS first (finds good
-    # hypotheses early, so the bound prunes more)
-    order = np.lexsort((nis[obs, lms], obs))
+    pairs, ambiguous, d2, nodes, complete = jcbb_search(
+        obs, lms, nis[obs, lms], nu, S, k, limits, max_nodes, reject_ambiguous
+    )
+    return JCBBResult(pairs, d2, nis, nodes, complete, ambiguous)
+
+
+def jcbb_search(obs, lms, score, nu, S, k, limits, max_nodes, reject_ambiguous=True):
+    """The branch and bound of Neira and Tardós over candidate pairs, shared by a scan's
+    association (:func:`jcbb`) and the fleet's map-to-map association
+    (:func:`slam.fleet.association.pair_maps`).
+
+    obs, lms : (c,) int, candidate pair a pairs item ``obs[a]`` (an observation, or an
+        incoming map's landmark; 0..k-1) with target ``lms[a]`` (a landmark of the map).
+    score : (c,) individual score of each pair (NIS); better pairs are tried first.
+    nu : (2c,) stacked differences of the pairs; S : (2c, 2c) their joint covariance.
+    k : number of items; limits : (≥k,) χ² limit of a hypothesis of p pairs at ``limits[p-1]``.
+    max_nodes : search budget (beyond it, the best hypothesis found so far).
+    reject_ambiguous : keep only the pairings every hypothesis of the best size shares.
+
+    Returns ``(pairs (k,) target or -1, ambiguous (k,) bool, joint NIS, nodes, complete)``:
+    the hypothesis with the most pairs whose joint NIS is below its limit (ties: smallest
+    joint NIS), each target used at most once.
+    """
+    # candidate pair ids of each item, best individual score first (finds good hypotheses
+    # early, so the bound prunes more)
+    order = np.lexsort((score, obs))
     cand = [order[obs[order] == i] for i in range(k)]
-    remaining = np.cumsum([len(c) > 0 for c in cand][::-1])[::-1]  # obs >= i with candidates
+    remaining = np.cumsum([len(c) > 0 for c in cand][::-1])[::-1]  # items >= i with candidates
 
     best = {"n": 0, "d2": 0.0, "sel": []}
     ties: list[frozenset] = []  # every jointly compatible hypothesis of the best size
     nodes = 0
 
     def joint_nis(sel):
-        rows = np.concatenate([[2 * a, 2 * a + 1] for a in sel])
+        rows = (2 * np.asarray(sel)[:, None] + np.arange(2)).reshape(-1)
         L = np.linalg.cholesky(S[np.ix_(rows, rows)])
         w = np.linalg.solve(L, nu[rows])
         return float(w @ w)
@@ -175,12 +198,13 @@ def jcbb(
                 search(i + 1, sel, used, d2a)
                 sel.pop()
                 used.discard(lms[a])
-        # leave observation i unpaired if the rest could still beat the best
+        # leave item i unpaired if the rest could still beat the best
         if len(sel) + (remaining[i + 1] if i + 1 < k else 0) >= best["n"]:
             search(i + 1, sel, used, d2)
 
     search(0, [], set(), 0.0)
     chosen = best["sel"]
+    pairs = np.full(k, -1, dtype=np.intp)
     ambiguous = np.zeros(k, dtype=bool)
     if reject_ambiguous and len(ties) > 1:
         # keep only the pairings every best-size hypothesis agrees on: another pairing
@@ -190,4 +214,4 @@ def jcbb(
         chosen = [a for a in chosen if a in common]
     for a in chosen:
         pairs[obs[a]] = lms[a]
-    return JCBBResult(pairs, best["d2"], nis, nodes, nodes <= max_nodes, ambiguous)
+    return pairs, ambiguous, float(best["d2"]), nodes, nodes <= max_nodes

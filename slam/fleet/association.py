@@ -13,27 +13,21 @@ hypothesis with most pairings (ties: smallest joint NIS); with ``reject_ambiguou
 the pairings every best-size hypothesis shares are kept (the others are reported as
 ambiguous), the rule of ``slam.estimators.jcbb`` for a scan.
 
-Hand-written (the paper's algorithm; ``slam.estimators.jcbb`` is the range-bearing scan
-version, whose innovations depend on the vehicle pose, not two maps' differences).
+The branch and bound is :func:`slam.estimators.jcbb.jcbb_search`, shared with the
+range-bearing scan association; only the candidate pairs and their joint covariance
+(two maps' differences instead of innovations that depend on the vehicle pose) are built
+here.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
-from scipy.stats import chi2
+
+from slam.estimators.jcbb import chi2_limits, jcbb_search
 
 __all__ = ["MapPairing", "pair_maps"]
-
-
-@lru_cache(maxsize=32)
-def _limits(confidence: float, k: int) -> np.ndarray:
-    """``chi2.ppf(confidence, 2 p)`` for p = 1..k."""
-    out = chi2.ppf(confidence, 2 * np.arange(1, k + 1))
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True)
@@ -92,11 +86,11 @@ def pair_maps(
     n, m = len(G), len(g)
     SG = np.asarray(SG, float).reshape(2 * n, 2 * n)
     Cg = np.asarray(Cg, float).reshape(2 * m, 2 * m)
-    pairs = np.full(m, -1, dtype=np.intp)
     none = np.zeros(m, dtype=bool)
+    pairs = np.full(m, -1, dtype=np.intp)
     if n == 0 or m == 0:
         return MapPairing(pairs, none, 0.0, 0, True)
-    limits = _limits(confidence, m)
+    limits = chi2_limits(confidence, m)
     ci, cj, cd = _individual(G, SG, g, Cg, limits[0])
     if ci.size == 0:
         return MapPairing(pairs, none, 0.0, 0, True)
@@ -106,54 +100,7 @@ def pair_maps(
     S = SG[np.ix_(ri, ri)] + Cg[np.ix_(rj, rj)]
     S = 0.5 * (S + S.T)
     nu = (G[ci] - g[cj]).reshape(-1)
-    # candidates of each incoming landmark, best individual score first (tighter bound early)
-    order = np.lexsort((cd, cj))
-    cand = [order[cj[order] == j] for j in range(m)]
-    remaining = np.cumsum([len(c) > 0 for c in cand][::-1])[::-1]
-    best = {"n": 0, "d2": 0.0, "sel": []}
-    ties: list[frozenset] = []
-    nodes = 0
-
-    def joint_nis(sel):
-        rows = (2 * np.asarray(sel)[:, None] + np.arange(2)).reshape(-1)
-        L = np.linalg.cholesky(S[np.ix_(rows, rows)])
-        w = np.linalg.solve(L, nu[rows])
-        return float(w @ w)
-
-    def search(j, sel, used, d2):
-        nonlocal nodes
-        nodes += 1
-        if nodes > max_nodes:
-            return
-        if j == m:
-            k = len(sel)
-            if k > best["n"]:
-                ties.clear()
-            if k >= best["n"] and k > 0:
-                ties.append(frozenset(sel))
-            if k > best["n"] or (k == best["n"] and k > 0 and d2 < best["d2"]):
-                best.update(n=k, d2=d2, sel=list(sel))
-            return
-        for a in cand[j]:  # the few fused landmarks individually compatible with j
-            if ci[a] in used:
-                continue
-            d2a = joint_nis([*sel, a])
-            if d2a < limits[len(sel)]:
-                used.add(ci[a])
-                sel.append(a)
-                search(j + 1, sel, used, d2a)
-                sel.pop()
-                used.discard(ci[a])
-        if len(sel) + (remaining[j + 1] if j + 1 < m else 0) >= best["n"]:
-            search(j + 1, sel, used, d2)  # j unpaired, if the rest can still tie the best
-
-    search(0, [], set(), 0.0)
-    chosen = best["sel"]
-    ambiguous = none.copy()
-    if reject_ambiguous and len(ties) > 1:
-        common = frozenset.intersection(*ties)
-        ambiguous[[cj[a] for a in chosen if a not in common]] = True
-        chosen = [a for a in chosen if a in common]
-    for a in chosen:
-        pairs[cj[a]] = ci[a]
-    return MapPairing(pairs, ambiguous, float(best["d2"]), nodes, nodes <= max_nodes)
+    pairs, ambiguous, d2, nodes, complete = jcbb_search(
+        cj, ci, cd, nu, S, m, limits, max_nodes, reject_ambiguous
+    )
+    return MapPairing(pairs, ambiguous, d2, nodes, complete)

@@ -222,3 +222,86 @@ def test_bad_input_names_the_field():
         FleetFusionConfig(confidence=1.5)
     with pytest.raises(ValueError, match=r"assignment\[0\] must hold 1 indices"):
         solve_fused([VehicleMap(np.zeros(5), np.eye(5))], [np.array([0, 1])])
+
+
+def test_fusion_does_not_make_a_vehicles_pose_worse_than_its_own_map():
+    """Known frames (the scenario's case), 40 generated pairs of maps sharing 6 of their
+    landmarks, each map a draw of its own covariance (shared navigation error): the fused
+    pose of each vehicle is closer to the truth on average than the vehicle's own (the
+    other map adds information through the shared landmarks), and its NEES averages 3
+    (inside the 99 % interval of the mean of 40 χ²(3) draws)."""
+    own, fused_err, nees = np.zeros((2, 40)), np.zeros((2, 40)), []
+    for s in range(40):
+        rng = np.random.default_rng(300 + s)
+        L = _landmarks(rng, 14)
+        poses = [np.array([-30.0, 20.0, 0.1]), np.array([30.0, -10.0, 0.5])]
+        a = _make_map(rng, np.zeros(3), poses[0], L[:10], "A")
+        b = _make_map(rng, np.zeros(3), poses[1], L[4:], "B")
+        f = fuse_maps([a, b])
+        paired = np.nonzero(f.assignment[1] < 10)[0]  # B's landmarks paired with A's
+        np.testing.assert_array_equal(f.assignment[1][paired], paired + 4)  # never wrongly
+        assert f.n_paired >= 4
+        for k, (mp, p) in enumerate(zip((a, b), poses, strict=True)):
+            own[k, s] = np.sum((mp.x[:2] - p[:2]) ** 2)
+            fused_err[k, s] = np.sum((f.poses[k, :2] - p[:2]) ** 2)
+            d = f.poses[k] - p
+            d[2] = (d[2] + math.pi) % (2 * math.pi) - math.pi
+            nees.append(d @ np.linalg.solve(f.pose_cov[k], d))
+    assert np.all(fused_err.mean(axis=1) < own.mean(axis=1))
+    lo, hi = chi2.ppf([0.005, 0.995], 3 * 80) / 80
+    assert lo < np.mean(nees) < hi
+
+
+def test_covariance_intersection_stays_consistent_when_the_maps_share_errors():
+    """Two maps of the same 8 landmarks whose errors share a common part (each map alone is
+    consistent: its covariance holds the common and its own part). Fusing them as
+    independent counts the common part twice: the fused landmark NEES averages well above 2;
+    with ``cross_correlation="unknown"`` (covariance intersection) it stays at or below 2."""
+    indep, ci = [], []
+    for s in range(30):
+        rng = np.random.default_rng(500 + s)
+        L = _landmarks(rng, 8)
+        n = 3 + 2 * len(L)
+        Cc = np.diag(np.r_[0.05, 0.05, 1e-4, np.full(2 * len(L), 0.8**2)])  # shared
+        Ci = _map_cov(np.vstack([[0.0, 0.0], L]), sigma_l=0.3, common=(0.1, 0.1, 0.002))
+        common = np.linalg.cholesky(Cc) @ rng.standard_normal(n)
+        maps = []
+        for k, pose in enumerate(([-30.0, 20.0, 0.1], [30.0, -10.0, 0.5])):
+            x_true = np.r_[pose, L.ravel()]
+            x = x_true + common + np.linalg.cholesky(Ci) @ rng.standard_normal(n)
+            maps.append(VehicleMap(x, Cc + Ci, f"v{k}"))
+        for cfg, out in (
+            (FleetFusionConfig(), indep),
+            (FleetFusionConfig(cross_correlation="unknown"), ci),
+        ):
+            f = fuse_maps(maps, config=cfg)
+            assert f.n_landmarks == len(L)  # all paired
+            d = f.landmarks[f.assignment[0]] - L
+            out.append(
+                np.mean(
+                    np.einsum("ni,nij,nj->n", d, np.linalg.inv(f.landmark_cov[f.assignment[0]]), d)
+                )
+            )
+    hi = chi2.ppf(0.99, 2 * 30) / 30  # the mean of 30 independent NEES draws
+    assert np.mean(indep) > hi
+    assert np.mean(ci) < hi
+
+
+def test_covariance_intersection_leaves_a_map_that_shares_nothing_as_it_is():
+    rng = np.random.default_rng(9)
+    a, b, _ = _two_maps(seed=9)
+    lone = _make_map(
+        rng, np.zeros(3), np.array([300.0, 300.0, 0.0]), np.array([[320.0, 310.0]]), "C"
+    )
+    f = fuse_maps([a, b, lone], config=FleetFusionConfig(cross_correlation="unknown"))
+    np.testing.assert_allclose(f.pose_cov[2], lone.P[:3, :3], rtol=1e-4, atol=1e-12)
+    np.testing.assert_allclose(
+        f.landmark_cov[f.assignment[2][0]], lone.P[3:, 3:], rtol=1e-4, atol=1e-12
+    )
+    # the two linked maps are intersected: weights below 1 widen their shared landmarks
+    g = fuse_maps([a, b, lone])
+    shared = f.assignment[1][:9]
+    assert np.all(
+        np.trace(f.landmark_cov[shared], axis1=1, axis2=2)
+        > np.trace(g.landmark_cov[shared], axis1=1, axis2=2)
+    )
