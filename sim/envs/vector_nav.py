@@ -30,7 +30,7 @@ starts where a fresh single env starts. Truncation at ``max_episode_steps`` (reg
 3000) as the TimeLimit wrapper does.
 
 State, altitudes, rewards and terminations are compiled loops over all N, the
-observation is ``waypoint_observation`` of the single env over N rows. With
+observation is ``WaypointNavEnv._get_obs`` over N rows (``vector_kernel.observe``). With
 ``nav_sensors=True`` (default) the navigation of all N is ``sim.navigation.NavBatch``:
 each sub-env's sensors drawn from the generator its NavSuite would get, polled and
 dead-reckoned for all N in one compiled pass, as ``WaypointNavEnv`` does for one.
@@ -52,7 +52,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 
 from sim.envs import vector_kernel as VK
 from sim.envs.base import ENV_NAV_CONFIG, VEHICLE_CHOICES, NavEstimate
-from sim.envs.waypoint_nav import sample_waypoints, waypoint_observation
+from sim.envs.waypoint_nav import sample_waypoints
 from sim.frames import wxyz_from_euler
 from sim.navigation.batch import NavBatch
 from sim.world import SeabedSpec, VehicleSpec, WorldSpec, build_world
@@ -226,18 +226,19 @@ class WaypointNavVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ step ----------
     def step(self, actions):
         n = self.num_envs
-        a = np.asarray(actions, dtype=np.float64).reshape(n, -1)
+        a = np.asarray(actions)
+        if a.dtype not in (np.float32, np.float64):
+            a = a.astype(np.float64)
+        a = a.reshape(n, -1) if a.size == n * self.n_actuators else a
         if a.shape != (n, self.n_actuators):
             raise ValueError(
                 f"actions must have shape ({n}, {self.n_actuators}), got {np.shape(actions)}"
             )
-        if not np.all(np.isfinite(a)):
-            raise ValueError("actions must be finite (NaN/inf are rejected)")
-        u = np.clip(a, -1.0, 1.0)
-        clipped = np.any(u != a, axis=1)
         w = self.world
-        resetting = self._done.copy()
-        u[resetting] = 0.0  # ignored: those envs are reset after this step's physics
+        resetting = self._done  # ignored actions: those envs are reset after the physics
+        u, clipped = np.empty((n, self.n_actuators)), np.empty(n, bool)
+        if not VK.actions(a, resetting, u, clipped):
+            raise ValueError("actions must be finite (NaN/inf are rejected)")
         w.thrusters.command[:] = u.ravel()
         w.step(self.frame_skip)
         dt = w.timestep
@@ -258,18 +259,18 @@ class WaypointNavVectorEnv(VectorEnv):
             pos, alt, u, self.waypoints, self._k, self._prev_dist, self.acceptance_radius,
             terms, reward, collided,
         )  # fmt: skip
-        terminated = collided | (self._k >= self.n_waypoints)
-        truncated = (
-            np.zeros(n, bool)
-            if self.max_episode_steps is None
-            else self._elapsed >= self.max_episode_steps
-        )
-        info = self._info(pos, rpy[:, 2], vb, collided)
+        terminated, truncated, nav_err = np.empty(n, bool), np.empty(n, bool), np.empty(n)
+        max_steps = -1 if self.max_episode_steps is None else self.max_episode_steps
+        VK.ends(
+            collided, self._k, self.n_waypoints, self._elapsed, max_steps, pos,
+            self._nav_pose, terminated, truncated, nav_err,
+        )  # fmt: skip
+        info = self._info(pos, rpy[:, 2], vb, collided, nav_err)
         info.update(zip(_REWARD_TERMS, terms.T))
-        info["action_clipped"] = clipped & ~resetting
-        for i in np.flatnonzero(resetting):
-            self._reset_one(i, None)
+        info["action_clipped"] = clipped
         if resetting.any():  # the reset envs report their reset observation
+            for i in np.flatnonzero(resetting):
+                self._reset_one(i, None)
             reward[resetting] = 0.0
             terminated[resetting] = False
             truncated[resetting] = False
@@ -278,20 +279,21 @@ class WaypointNavVectorEnv(VectorEnv):
         return self._obs(), reward, terminated, truncated, info
 
     def _obs(self) -> np.ndarray:
-        idx = np.arange(self.num_envs)
-        wp = self.waypoints[idx, np.minimum(self._k, self.n_waypoints - 1)]
-        m = self._meas
-        return waypoint_observation(
-            self._nav_pose, wp, m[:, 0:3], m[:, 3], m[:, 4], m[:, 5], m[:, 6], m[:, 7],
-            self.n_waypoints - self._k,
-        )  # fmt: skip
+        o = np.empty((self.num_envs, 17), np.float32)
+        VK.observe(self._nav_pose, self.waypoints, self._k, self._meas, o)
+        rel = np.arctan2(o[:, 1], o[:, 0])
+        np.sin(rel, out=o[:, 4])
+        np.cos(rel, out=o[:, 5])
+        return o
 
-    def _info(self, pos, yaw, vb, collided) -> dict:
+    def _info(self, pos, yaw, vb, collided, nav_err=None) -> dict:
+        if nav_err is None:
+            nav_err = np.linalg.norm(self._nav_pose[:, :2] - pos[:, :2], axis=1)
         return {
             "true_position": pos,
             "true_yaw": yaw,
             "true_velocity_body": vb,
-            "nav_position_error_m": np.linalg.norm(self._nav_pose[:, :2] - pos[:, :2], axis=1),
+            "nav_position_error_m": nav_err,
             "time_s": self._t.copy(),
             "waypoint_index": self._k.copy(),
             "collided": collided,
