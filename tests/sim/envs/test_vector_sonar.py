@@ -87,8 +87,8 @@ def test_coverage_reward_counts_new_cells():
         venv.step(np.full((2, 3), np.nan))
     with pytest.raises(ValueError, match="shape"):
         venv.step(np.zeros((3, 3)))
-    with pytest.raises(ValueError, match="sonar"):
+    with pytest.raises(ValueError, match="blueview_p900_90"):  # a forward-looking preset
         gym.make_vec(
             "undersea/SonarSurvey-v0", num_envs=2, vectorization_mode="vector_entry_point",
-            sonar="gemini720i",
+            sonar="blueview_p900_90",
         )  # fmt: skip
