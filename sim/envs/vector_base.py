@@ -220,6 +220,27 @@ class VehicleBatchEnv(VectorEnv):
             VK.ideal_nav(pos, vb, om, alt, rpy, self._meas, self._nav_pose)
         return u, clipped, resetting, pos, quat, vb, om, alt, rpy
 
+    def _reset_one(self, i: int, seed: int | None) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _reset_all(self, seed) -> None:
+        for i, s in enumerate(self._seeds(seed)):
+            self._reset_one(i, s)
+        self._done[:] = False
+
+    def _autoreset(self, resetting, reward, terminated, truncated, terms) -> None:
+        """NEXT_STEP autoreset: the envs ``resetting`` (their episode ended last step) are
+        reset now and report reward 0, no end and zero reward terms; every env whose
+        episode ends this step resets on the next."""
+        if resetting.any():
+            for i in np.flatnonzero(resetting):
+                self._reset_one(i, None)
+            reward[resetting] = 0.0
+            terminated[resetting] = False
+            truncated[resetting] = False
+            terms[resetting] = 0.0
+        self._done = terminated | truncated
+
     def _truncated(self) -> np.ndarray:
         if self.max_episode_steps is None:
             return np.zeros(self.num_envs, bool)

@@ -86,9 +86,7 @@ class WaypointNavVectorEnv(VehicleBatchEnv):
     def reset(self, *, seed=None, options=None):
         """Reset all sub-envs; seed: an int (env i gets seed + i), a list of N ints or
         Nones, or None."""
-        for i, s in enumerate(self._seeds(seed)):
-            self._reset_one(i, s)
-        self._done[:] = False
+        self._reset_all(seed)
         pos, _, vb, _, _, rpy = self._true()
         info = self._info(pos, rpy[:, 2], vb, np.zeros(self.num_envs, bool))
         info["waypoint_index"] = self._k.copy()
@@ -113,14 +111,7 @@ class WaypointNavVectorEnv(VehicleBatchEnv):
         info["waypoint_index"] = self._k.copy()
         info.update(zip(_REWARD_TERMS, terms.T))
         info["action_clipped"] = clipped
-        if resetting.any():  # the reset envs report their reset observation
-            for i in np.flatnonzero(resetting):
-                self._reset_one(i, None)
-            reward[resetting] = 0.0
-            terminated[resetting] = False
-            truncated[resetting] = False
-            terms[resetting] = 0.0
-        self._done = terminated | truncated
+        self._autoreset(resetting, reward, terminated, truncated, terms)
         return self._obs(), reward, terminated, truncated, info
 
     def _obs(self) -> np.ndarray:
