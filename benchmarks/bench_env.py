@@ -10,6 +10,9 @@ Cases, measured one after the other in one run, random actions, resets included:
                                (sim.envs.vector_nav, B vehicles in one model), nav
                                sensors on and ideal navigation; its RSS after the
                                warm-up and after ``--growth-steps`` more env steps;
+  SonarSurvey-v0 x S batch   — the same for sim.envs.vector_sonar (S vehicles, one
+                               ping each per step), nav sensors on; RSS over
+                               ``--sonar-growth-steps`` more env steps;
   bare mj_step               — the WaypointNav model's own ``mj_step`` rate, per action
                                (``frame_skip`` physics steps), the floor of the env.
 Targets (issue 6, this machine): WaypointNav >= 2,000 steps/s on one core; SonarSurvey
@@ -108,15 +111,13 @@ def _rss_mb() -> float:
     return psutil.Process().memory_info().rss / 2**20
 
 
-def _batch(n: int, steps: int, growth_steps: int, **kw) -> dict:
+def _batch(n: int, steps: int, growth_steps: int, env_id="undersea/WaypointNav-v0", **kw) -> dict:
     """Aggregate steps/s of the batched env; RSS after the warm-up and after
     ``growth_steps`` more env steps (all sub-envs counted)."""
     import gymnasium as gym
     import numpy as np
 
-    venv = gym.make_vec(
-        "undersea/WaypointNav-v0", num_envs=n, vectorization_mode="vector_entry_point", **kw
-    )
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kw)
     venv.reset(seed=0)
     rng = np.random.default_rng(0)
     acts = rng.uniform(-1, 1, (64, *venv.action_space.shape)).astype(np.float32)
@@ -163,6 +164,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--growth-steps", type=int, default=100_000, help="env steps between the RSS readings"
     )
+    p.add_argument("--sonar-batch", type=int, default=64, help="vehicles of the SonarSurvey batch")
+    p.add_argument(
+        "--sonar-growth-steps",
+        type=int,
+        default=10_000,
+        help="SonarSurvey batch: env steps between the RSS readings",
+    )
     p.add_argument(
         "--against",
         metavar="TREE",
@@ -196,6 +204,11 @@ def main(argv: list[str] | None = None) -> int:
         "ideal-nav": _batch(b, max(20, n // b * 4), a.growth_steps, nav_sensors=False),
         "nav-sensors": _batch(b, max(20, n // b * 4), a.growth_steps),
     }
+    sb = a.sonar_batch
+    batch["sonar"] = _batch(
+        sb, max(5, n // (sb * 2)), a.sonar_growth_steps, env_id="undersea/SonarSurvey-v0"
+    )
+    res[f"SonarSurvey-v0 x{sb} batch"] = batch["sonar"]["steps_per_s"]
     res[f"WaypointNav-v0 x{b} batch"] = batch["nav-sensors"]["steps_per_s"]
     res[f"WaypointNav-v0 x{b} batch ideal-nav"] = batch["ideal-nav"]["steps_per_s"]
     res["bare mj_step (actions/s)"] = _bare_rate()
@@ -204,6 +217,8 @@ def main(argv: list[str] | None = None) -> int:
         f"x{b} batch ideal-nav / single ideal-nav": res[f"WaypointNav-v0 x{b} batch ideal-nav"]
         / res["WaypointNav-v0 ideal-nav"],
         "bare mj_step / single": res["bare mj_step (actions/s)"] / res["WaypointNav-v0"],
+        f"SonarSurvey x{sb} batch / single": res[f"SonarSurvey-v0 x{sb} batch"]
+        / res["SonarSurvey-v0"],
     }
     if a.against is not None:  # the other tree's single env, right after this tree's
         res["WaypointNav-v0 (--against)"] = _single_in(a.against, n)
@@ -220,6 +235,7 @@ def main(argv: list[str] | None = None) -> int:
         "batch_goal": BATCH_GOAL,
         "rss_mb": rss,
         "rss_mb_nav_sensors": batch["nav-sensors"],
+        "rss_mb_sonar": batch["sonar"],
         "single_goal_vs_against": SINGLE_GOAL,
         "rss_goal_mb": RSS_GOAL_MB,
         "steps_per_s": {k: round(v, 1) for k, v in res.items()},
@@ -252,6 +268,11 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"  batch x{b} nav sensors RSS {r2['rss_mb_start']:.0f} MB after warm-up, "
             f"{r2['rss_mb_end']:.0f} MB after {r2['env_steps_between_rss']} more env steps"
+        )
+        r3 = batch["sonar"]
+        print(
+            f"  SonarSurvey batch x{sb} RSS {r3['rss_mb_start']:.0f} MB after warm-up, "
+            f"{r3['rss_mb_end']:.0f} MB after {r3['env_steps_between_rss']} more env steps"
         )
     return 0
 

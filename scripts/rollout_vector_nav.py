@@ -1,4 +1,4 @@
-"""PPO-style rollout collection on the batched WaypointNav env, with a random policy.
+"""PPO-style rollout collection on a batched undersea env, with a random policy.
 
 Collects ``--horizon`` steps from ``--num-envs`` vehicles into the (T, N, ...) buffers a
 PPO update consumes (observations, actions, log-probabilities of a Gaussian policy,
@@ -6,6 +6,10 @@ rewards, dones, values), then computes GAE advantages and returns — everything
 network. Replace ``policy`` with a trained actor-critic.
 
     python scripts/rollout_vector_nav.py --num-envs 64 --horizon 128 [--nav-sensors]
+    python scripts/rollout_vector_nav.py --env SonarSurvey-v0 --num-envs 16 --horizon 32
+
+(SonarSurvey-v0: a dict observation, nav (N, 13) and waterfall (N, 32, 64), buffered per
+key.)
 """
 
 from __future__ import annotations
@@ -19,9 +23,9 @@ import numpy as np
 import sim.envs  # noqa: F401  (registers the ids and the vector entry point)
 
 
-def policy(obs: np.ndarray, rng: np.random.Generator, std: float = 0.5):
+def policy(obs, rng: np.random.Generator, std: float = 0.5):
     """A random Gaussian policy: actions (N, k), their log-probabilities (N,), values (N,)."""
-    n = obs.shape[0]
+    n = (obs["nav"] if isinstance(obs, dict) else obs).shape[0]
     mean = np.zeros((n, 3))
     act = mean + std * rng.standard_normal((n, 3))
     logp = -0.5 * np.sum(((act - mean) / std) ** 2 + np.log(2 * np.pi * std**2), axis=1)
@@ -44,6 +48,7 @@ def gae(rewards, values, dones, last_value, gamma=0.99, lam=0.95):
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--env", default="WaypointNav-v0", choices=("WaypointNav-v0", "SonarSurvey-v0"))
     p.add_argument("--num-envs", type=int, default=64)
     p.add_argument("--horizon", type=int, default=128)
     p.add_argument("--iterations", type=int, default=2)
@@ -51,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     a = p.parse_args(argv)
     venv = gym.make_vec(
-        "undersea/WaypointNav-v0",
+        f"undersea/{a.env}",
         num_envs=a.num_envs,
         vectorization_mode="vector_entry_point",
         nav_sensors=a.nav_sensors,
@@ -59,14 +64,19 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(a.seed)
     obs, _ = venv.reset(seed=a.seed)
     T, N = a.horizon, a.num_envs
-    buf_obs = np.zeros((T, N, obs.shape[1]), np.float32)
+    keys = list(obs) if isinstance(obs, dict) else [None]
+    buf_obs = {
+        k: np.zeros((T, *(obs[k] if k is not None else obs).shape), np.float32) for k in keys
+    }
     buf_act = np.zeros((T, N, 3), np.float32)
     buf = {k: np.zeros((T, N)) for k in ("logp", "reward", "done", "value")}
     for it in range(a.iterations):
         t0 = time.perf_counter()
         for t in range(T):
             act, logp, value = policy(obs, rng)
-            buf_obs[t], buf_act[t] = obs, act
+            for k in keys:
+                buf_obs[k][t] = obs[k] if k is not None else obs
+            buf_act[t] = act
             obs, reward, term, trunc, _ = venv.step(act)
             buf["logp"][t], buf["value"][t] = logp, value
             buf["reward"][t], buf["done"][t] = reward, term | trunc

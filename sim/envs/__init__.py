@@ -10,6 +10,7 @@
 
     venv = gym.make_vec("undersea/WaypointNav-v0", num_envs=64,
                         vectorization_mode="vector_entry_point")  # sim.envs.vector_nav
+    (SonarSurvey-v0 likewise: sim.envs.vector_sonar)
 
 Each class docstring is the manual (spaces with units, rewards, episode end, arguments).
 """
@@ -23,7 +24,10 @@ _ENVS = {
 }
 # batched versions (N vehicles in one MuJoCo model), for
 # gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")
-_VECTOR = {"undersea/WaypointNav-v0": "sim.envs.vector_nav:WaypointNavVectorEnv"}
+_VECTOR = {
+    "undersea/WaypointNav-v0": "sim.envs.vector_nav:WaypointNavVectorEnv",
+    "undersea/SonarSurvey-v0": "sim.envs.vector_sonar:SonarSurveyVectorEnv",
+}
 
 for _id, (_entry, _steps) in _ENVS.items():
     if _id not in registry:

@@ -18,6 +18,72 @@ FAST_SSS = {
 }
 
 
+def survey_sonar_config(sonar: str, sonar_overrides: dict | None):
+    """The side-scan configuration of a survey env: preset ``sonar`` with ``FAST_SSS`` and
+    then ``sonar_overrides`` applied; ValueError naming ``sonar`` if not a side-scan."""
+    from sim.sonar import preset
+    from sim.sonar.config import SSSConfig
+
+    ov = dict(FAST_SSS)
+    ov.update(sonar_overrides or {})
+    cfg = preset(sonar, **ov)
+    if not isinstance(cfg, SSSConfig):
+        raise ValueError(
+            f"sonar = {sonar!r}; allowed: a side-scan preset (deepeye340d, deepeye680d, klein3500)"
+        )
+    return cfg
+
+
+def check_survey_args(area_size: float, target_coverage: float, arena_size: float) -> None:
+    if not 0 < target_coverage <= 1:
+        raise ValueError(f"target_coverage = {target_coverage!r}; allowed: (0, 1]")
+    if not 0 < area_size < arena_size - 20:
+        raise ValueError(f"area_size = {area_size!r}; allowed: (0, arena_size - 20) m")
+
+
+def survey_start(
+    rng: np.random.Generator, area_size: float, water_depth: float
+) -> tuple[np.ndarray, float]:
+    """Start position (3,) world m and heading rad of a survey: a random point on the
+    area's boundary at 10 m altitude, heading into the area +/- 45 deg (drawn from rng:
+    the side, the point along it, the heading offset)."""
+    half = area_size / 2
+    side = int(rng.integers(4))
+    t = float(rng.uniform(-half, half))
+    p, into = [
+        (np.array([-half, t]), 0.0),
+        (np.array([half, t]), np.pi),
+        (np.array([t, -half]), np.pi / 2),
+        (np.array([t, half]), -np.pi / 2),
+    ][side]
+    yaw = into + float(rng.uniform(-np.pi / 4, np.pi / 4))
+    return np.array([p[0], p[1], -(water_depth - 10.0)]), yaw
+
+
+def ping_footprint(
+    ping, log_compression: bool, area_size: float, cell_size: float, n_cells: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """A ping's waterfall row (64,) float32 in [0, 1] (the display intensity downsampled
+    to 64 columns) and the (row, col) indices (k, 2) of the area's cells its samples land
+    on outside the nadir band (ground range >= half the altitude)."""
+    x = np.clip(ping.intensity.astype(np.float32), 0.0, None)
+    if not log_compression:
+        x = x / max(float(x.max()), 1e-30)
+    row = np.clip(x[: (x.size // 64) * 64].reshape(64, -1).mean(axis=1), 0.0, 1.0)
+    ok = ping.labels >= 0
+    if not np.any(ok):
+        return row, np.zeros((0, 2), np.int64)
+    hp = ping.hit_position[ok]
+    sr = ping.slant_range[ok]
+    alt = ping.altitude if np.isfinite(ping.altitude) else 0.0
+    g2 = sr**2 - alt**2
+    hp = hp[g2 >= (0.5 * alt) ** 2]
+    half = area_size / 2
+    ij = np.floor((hp[:, :2] + half) / cell_size).astype(np.int64)
+    ij = ij[np.all((ij >= 0) & (ij < n_cells), axis=1)]
+    return row, ij[:, ::-1]
+
+
 class SonarSurveyEnv(UnderseaEnv):
     """Cover a rectangular survey area with the side-scan sonar.
 
@@ -86,13 +152,9 @@ class SonarSurveyEnv(UnderseaEnv):
         record_path: str | None = None,
         nav_sensors: bool = True,
     ) -> None:
-        from sim.sonar import SideScanSonar, preset
-        from sim.sonar.config import SSSConfig
+        from sim.sonar import SideScanSonar
 
-        if not 0 < target_coverage <= 1:
-            raise ValueError(f"target_coverage = {target_coverage!r}; allowed: (0, 1]")
-        if not 0 < area_size < arena_size - 20:
-            raise ValueError(f"area_size = {area_size!r}; allowed: (0, arena_size - 20) m")
+        check_survey_args(area_size, target_coverage, arena_size)
         super().__init__(
             vehicle,
             arena_size=arena_size,
@@ -103,14 +165,7 @@ class SonarSurveyEnv(UnderseaEnv):
             record_path=record_path,
             nav_sensors=nav_sensors,
         )
-        ov = dict(FAST_SSS)
-        ov.update(sonar_overrides or {})
-        cfg = preset(sonar, **ov)
-        if not isinstance(cfg, SSSConfig):
-            raise ValueError(
-                f"sonar = {sonar!r}; allowed: a side-scan preset (deepeye340d, deepeye680d, klein3500)"
-            )
-
+        cfg = survey_sonar_config(sonar, sonar_overrides)
         w = self.world
         h = self.vehicle
         self.sonar = SideScanSonar(
@@ -142,17 +197,8 @@ class SonarSurveyEnv(UnderseaEnv):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         rng = self.np_random
-        half = self.area_size / 2
-        side = int(rng.integers(4))
-        t = float(rng.uniform(-half, half))
-        p, into = [
-            (np.array([-half, t]), 0.0),
-            (np.array([half, t]), np.pi),
-            (np.array([t, -half]), np.pi / 2),
-            (np.array([t, half]), -np.pi / 2),
-        ][side]
-        yaw = into + float(rng.uniform(-np.pi / 4, np.pi / 4))
-        self._reset_world(np.array([p[0], p[1], -(self.water_depth - 10.0)]), yaw)
+        start, yaw = survey_start(rng, self.area_size, self.water_depth)
+        self._reset_world(start, yaw)
         self._sonar_rng = np.random.default_rng(int(rng.integers(2**63)))
         self.sonar.clear_cache()
         self.covered[:] = False
@@ -164,31 +210,17 @@ class SonarSurveyEnv(UnderseaEnv):
     def _ping(self) -> int:
         """Ping, push the downsampled row into the waterfall, mark coverage; new cells."""
         ping = self.sonar.ping(self.world.data, self._sonar_rng)
-        x = np.clip(ping.intensity.astype(np.float32), 0.0, None)
-        if not self.sonar.config.acoustic.log_compression:
-            x = x / max(float(x.max()), 1e-30)
-        row = x[: (x.size // 64) * 64].reshape(64, -1).mean(axis=1)
+        row, ij = ping_footprint(
+            ping, self.sonar.config.acoustic.log_compression, self.area_size, self.cell_size,
+            self._n_cells,
+        )  # fmt: skip
         self._wf = np.roll(self._wf, -1, axis=0)
-        self._wf[-1] = np.clip(row, 0.0, 1.0)
+        self._wf[-1] = row
         self._last_ping = ping
-        ok = ping.labels >= 0
-        if not np.any(ok):
-            return 0
-        hp = ping.hit_position[ok]
-        S = ping.samples_per_side
-        sr = ping.slant_range[ok]
-        alt = ping.altitude if np.isfinite(ping.altitude) else 0.0
-        g2 = sr**2 - alt**2
-        hp = hp[g2 >= (0.5 * alt) ** 2]
-        del S
-        half = self.area_size / 2
-        ij = np.floor((hp[:, :2] + half) / self.cell_size).astype(np.int64)
-        inside = np.all((ij >= 0) & (ij < self._n_cells), axis=1)
-        ij = ij[inside]
         if ij.size == 0:
             return 0
         before = int(self.covered.sum())
-        self.covered[ij[:, 1], ij[:, 0]] = True
+        self.covered[ij[:, 0], ij[:, 1]] = True
         return int(self.covered.sum()) - before
 
     @property
@@ -262,4 +294,4 @@ class SonarSurveyEnv(UnderseaEnv):
         return img
 
 
-__all__ = ["FAST_SSS", "SonarSurveyEnv"]
+__all__ = ["FAST_SSS", "SonarSurveyEnv", "ping_footprint", "survey_sonar_config", "survey_start"]

@@ -139,3 +139,64 @@ def rewards(pos, alt, u, wps, k, prev_dist, radius, terms, reward, collided):
                 e2 = wps[i, k[i], 2] - pos[i, 2]
                 dist = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         prev_dist[i] = dist
+
+
+@numba.njit(cache=True)
+def actions(a, done, u, clipped):
+    """``UnderseaEnv._check_action`` of N rows: False when an entry of a (N, n_act) is not
+    finite (nothing written then); else u = a clipped to [-1, 1] (rows of the done envs
+    zeroed: their action is ignored) and clipped[i] = row i needed clipping and is not done."""
+    n, m = a.shape
+    for i in range(n):
+        for j in range(m):
+            if not math.isfinite(a[i, j]):
+                return False
+    for i in range(n):
+        c = False
+        for j in range(m):
+            x = float(a[i, j])
+            y = min(max(x, -1.0), 1.0)
+            c = c or y != x
+            u[i, j] = 0.0 if done[i] else y
+        clipped[i] = c and not done[i]
+    return True
+
+
+@numba.njit(cache=True)
+def ends(collided, k, n_wp, elapsed, max_steps, pos, nav_pose, terminated, truncated, nav_err):
+    """Episode ends of every row (terminated: collision or every waypoint reached;
+    truncated: ``elapsed >= max_steps``, never when max_steps < 0) and the nav position
+    error (N,) m, |nav xy - true xy|."""
+    for i in range(collided.shape[0]):
+        terminated[i] = collided[i] or k[i] >= n_wp
+        truncated[i] = max_steps >= 0 and elapsed[i] >= max_steps
+        nav_err[i] = math.hypot(nav_pose[i, 0] - pos[i, 0], nav_pose[i, 1] - pos[i, 1])
+
+
+@numba.njit(cache=True)
+def observe(nav_pose, wps, k, meas, obs):
+    """Observations obs (N, 17) float32 (the table of ``WaypointNavEnv``) from the nav
+    poses (N, 3) [x, y, yaw], the waypoints (N, n_wp, 3) and indices k (N,) and the held
+    measurements meas (N, 8): DVL velocity 0:3, yaw rate 3, depth 4, altitude 5
+    (non-finite -> 0), roll 6, pitch 7. Float32 where ``WaypointNavEnv._get_obs`` is.
+    Columns 4, 5 (sin, cos of the waypoint's bearing atan2(obs[:, 1], obs[:, 0]) in
+    float32) are left to the caller: numpy's float32 loops, which numba's atan2f, sinf
+    and cosf differ from in the last bit."""
+    n_wp = wps.shape[1]
+    for i in range(nav_pose.shape[0]):
+        kk = min(k[i], n_wp - 1)
+        x, y, yaw = nav_pose[i, 0], nav_pose[i, 1], nav_pose[i, 2]
+        dx, dy = wps[i, kk, 0] - x, wps[i, kk, 1] - y
+        c, s = math.cos(yaw), math.sin(yaw)
+        obs[i, 0] = c * dx + s * dy
+        obs[i, 1] = -s * dx + c * dy
+        obs[i, 2] = wps[i, kk, 2] - (-meas[i, 4])
+        obs[i, 3] = math.hypot(dx, dy)
+        for j in range(3):
+            obs[i, 6 + j] = meas[i, j]
+        obs[i, 9] = meas[i, 3]
+        obs[i, 10] = meas[i, 4]
+        obs[i, 11] = meas[i, 5] if math.isfinite(meas[i, 5]) else 0.0
+        obs[i, 12], obs[i, 13] = meas[i, 6], meas[i, 7]
+        obs[i, 14], obs[i, 15] = s, c
+        obs[i, 16] = n_wp - k[i]

@@ -31,33 +31,6 @@ def sample_waypoints(
     return np.array(wps)
 
 
-def waypoint_observation(
-    nav_pose, wp, velocity, yaw_rate, depth, altitude, roll, pitch, remaining
-) -> np.ndarray:
-    """Observations (N, 17) float32 of N vehicles (the table of WaypointNavEnv) from their
-    nav poses (N, 3) [x, y, yaw], current waypoints (N, 3), DVL velocities (N, 3) and the
-    (N,) yaw rates, depths, altitudes (non-finite -> 0), roll, pitch, waypoints left."""
-    n = len(nav_pose)
-    o = np.zeros((n, 17), np.float32)
-    x, y, yaw = nav_pose[:, 0], nav_pose[:, 1], nav_pose[:, 2]
-    dx, dy = wp[:, 0] - x, wp[:, 1] - y
-    c, s = np.cos(yaw), np.sin(yaw)
-    o[:, 0] = c * dx + s * dy
-    o[:, 1] = -s * dx + c * dy
-    o[:, 2] = wp[:, 2] - (-depth)
-    o[:, 3] = np.hypot(dx, dy)
-    rel = np.arctan2(o[:, 1], o[:, 0])  # of the float32 components
-    o[:, 4], o[:, 5] = np.sin(rel), np.cos(rel)
-    o[:, 6:9] = velocity
-    o[:, 9] = yaw_rate
-    o[:, 10] = depth
-    o[:, 11] = np.where(np.isfinite(altitude), altitude, 0.0)
-    o[:, 12], o[:, 13] = roll, pitch
-    o[:, 14], o[:, 15] = s, c
-    o[:, 16] = remaining
-    return o
-
-
 class WaypointNavEnv(UnderseaEnv):
     """Reach a sequence of 3-D waypoints with one SWARMs vehicle, from navigation sensors.
 
@@ -171,7 +144,7 @@ class WaypointNavEnv(UnderseaEnv):
         return self._get_obs(), info
 
     def _get_obs(self) -> np.ndarray:
-        """One row of ``waypoint_observation``, in scalars (cheaper for one vehicle)."""
+        """The observation table above, in scalars (the batch: ``vector_kernel.observe``)."""
         nav = self.nav_estimate()
         o = np.zeros(17, np.float32)
         x, y, yaw = nav.pose

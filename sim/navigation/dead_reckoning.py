@@ -102,6 +102,8 @@ _BV = slice(13, 16)  # DVL velocity offset, body frame, m/s (constant)
 _K = slice(16, 20)  # compass deviation coefficients a1, b1, a2, b2, rad (constant)
 _G = 20  # compass Gauss–Markov drift, rad
 _N = 21
+_EYE = np.eye(_N)  # copied, never written: an identity without np.eye's cost per use
+_EYE.flags.writeable = False
 # states a compass update corrects (the others are "consider" states)
 _UPDATED = np.zeros(_N, bool)
 _UPDATED[[0, 1, 2, 9, 10]] = True
@@ -338,7 +340,7 @@ class DeadReckoner:
         R = _rot2(phi_mid)
         dp = R @ (T @ self.v) * h
         # error-state transition
-        F = np.eye(_N)
+        F = _EYE.copy()
         Jdp = np.array([-dp[1], dp[0]])  # d(dp)/d(phi_mid)
         F[_P, _PHI] = Jdp  # the rotation uses the heading change, error e_psi − e0
         F[_P, _E0] = -Jdp
@@ -388,7 +390,7 @@ class DeadReckoner:
     def _correct(self, rows, cols, G, noise_idx, var: float, dx) -> None:
         """Apply the deterministic correction ``dx`` to the state rows and propagate its
         error G (n_new − n_old): remove G n_old, draw a fresh n_new, add G n_new."""
-        F = np.eye(_N)
+        F = _EYE.copy()
         F[rows, cols] = -G
         self.P = F @ self.P @ F.T
         self._fresh_noise(noise_idx, var)
@@ -502,7 +504,7 @@ class DeadReckoner:
         if self.psi0 is None:
             self.psi0 = _wrap(yaw - self.phi)
             hc = self._compass_row(yaw)
-            A = np.eye(_N)
+            A = _EYE.copy()
             A[_PHI, :] = hc
             A[_E0, :] += hc
             A[_E0, _PHI] -= 1.0
@@ -523,7 +525,7 @@ class DeadReckoner:
         self.p = self.p - dx[_P]
         self.phi = self.phi - dx[_PHI]
         self.b_hat = self.b_hat + dx[_B]  # the bias state is (true − estimate)
-        A = np.eye(_N) - np.outer(K, h)
+        A = _EYE - np.outer(K, h)
         self.P = A @ self.P @ A.T + np.outer(K, K) * var
 
     @staticmethod
@@ -570,7 +572,7 @@ class DeadReckoner:
         # new interval: position error restarts at zero; with an absolute heading the
         # clone e0 takes the current heading error, without one the heading-change error
         # restarts at zero; held-noise and bias states carry over
-        A = np.eye(_N)
+        A = _EYE.copy()
         A[_P, :] = 0.0
         if self.psi0 is not None:
             A[_E0, :] = 0.0

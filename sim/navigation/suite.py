@@ -7,7 +7,6 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from sim.navigation.dead_reckoning import DeadReckoner, DeadReckoningConfig, OdometryIncrement
 from sim.navigation.sensors import (
@@ -221,15 +220,9 @@ class NavSuite:
         velocities and altitude stay true (their navigation errors are second order
         for the guidance here; stated simplification)."""
         x, y, yaw = self.pose()
-        yaw_true = truth.euler[2]
-        dq = Rotation.from_euler("z", yaw - float(yaw_true))
-        q_xyzw = (dq * Rotation.from_quat(np.roll(truth.quat_wxyz, -1))).as_quat()
+        q = _yaw_rotated(truth.quat_wxyz, yaw - float(truth.euler[2]))
         z = -self._depth_nav if math.isfinite(self._depth_nav) else float(truth.position[2])
-        return replace(
-            truth,
-            position=np.array([x, y, z]),
-            quat_wxyz=np.roll(q_xyzw, 1),
-        )
+        return replace(truth, position=np.array([x, y, z]), quat_wxyz=q)
 
     def summary(self) -> dict:
         """Sensor suite facts for metrics: heading source, DVL lock fraction, warnings."""
@@ -253,6 +246,24 @@ class NavSuite:
 def _rot2(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s], [s, c]])
+
+
+def _yaw_rotated(q_wxyz: np.ndarray, d: float) -> np.ndarray:
+    """The unit quaternion (4,) wxyz of a rotation by d rad about world z composed with
+    q_wxyz (normalized first): ``Rotation.from_euler("z", d) * Rotation.from_quat(q)`` of
+    scipy in scalar arithmetic, with scipy's operations in its order (normalize the
+    input, Hamilton product, normalize the result), so the same bits
+    (tests/sim/navigation/test_nav_suite_speed.py checks against scipy)."""
+    w, x, y, z = float(q_wxyz[0]), float(q_wxyz[1]), float(q_wxyz[2]), float(q_wxyz[3])
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    p0, p1, p2, p3 = 0.0, 0.0, math.sin(d / 2), math.cos(d / 2)
+    r0 = p3 * x + w * p0 + (p1 * z - p2 * y)
+    r1 = p3 * y + w * p1 + (p2 * x - p0 * z)
+    r2 = p3 * z + w * p2 + (p0 * y - p1 * x)
+    r3 = p3 * w - p0 * x - p1 * y - p2 * z
+    m = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3)
+    return np.array([r3 / m, r0 / m, r1 / m, r2 / m])
 
 
 def _compose(pose: np.ndarray, delta: np.ndarray) -> np.ndarray:
