@@ -25,16 +25,7 @@ from sim.sonar.echo import Echo, form_echo
 from sim.sonar.glint import corner_returns
 from sim.sonar.mount import SonarMount
 from sim.sonar.rays import RayCones, RayHits, ray_cones
-from sim.sonar.waterfall import (  # noqa: F401  (re-exported: their home before the split)
-    GroundRangeImage,
-    Mosaic,
-    SideScanWaterfall,
-    SSSPing,
-    ground_range,
-    mosaic,
-    sample_ground_positions,
-    slant_to_ground,
-)
+from sim.sonar.waterfall import SSSPing
 
 _PROBE_DEG = np.array([60.0, 65.0, 70.0, 75.0, 80.0, 85.0, 90.0])
 
