@@ -4,7 +4,7 @@
 writes ``DIR/recording.rrd``, ``DIR/metrics.json`` and PNG figures (see sim.runner).
 ``demo`` runs a one-minute cut of the default scenario (shipwreck-survey: the first
 survey line, past a rock and the wreck) into ``runs/demo``; ``--full`` runs the whole
-420 s survey. Both refuse to replace an existing output unless ``--overwrite``.
+450 s survey. Both refuse to replace an existing output unless ``--overwrite``.
 ``scenarios`` lists the built-ins with their descriptions.
 """
 
@@ -30,7 +30,7 @@ DEMO_OVERRIDES = {
 
 COMMAND_HELPS = {
     "run": "run a scenario headless: writes DIR/recording.rrd, DIR/metrics.json and figures",
-    "demo": f"a one-minute survey over a wreck into ./{DEMO_OUT} (--full: the 420 s survey)",
+    "demo": f"a one-minute survey over a wreck into ./{DEMO_OUT} (--full: the 450 s survey)",
     "scenarios": "list the built-in scenarios",
 }
 
@@ -58,7 +58,7 @@ def add_command_arguments(name: str, parser: argparse.ArgumentParser) -> None:
     )
     if name == "demo":
         parser.add_argument(
-            "--full", action="store_true", help="the whole 420 s survey instead of one minute"
+            "--full", action="store_true", help="the whole 450 s survey instead of one minute"
         )
     parser.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     parser.add_argument(
