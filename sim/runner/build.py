@@ -27,7 +27,6 @@ from sim.world import (
 )
 from sim.world import VehicleSpec as WorldVehicleSpec
 from slam.pipeline import (
-    REAL_SIDESCAN,
     DetectionTally,
     EstimatorSpec,
     PipelineConfig,
@@ -35,6 +34,7 @@ from slam.pipeline import (
     SonarSlam,
     build_estimator,
     make_frontend,
+    with_real_sidescan_rules,
 )
 
 
@@ -148,14 +148,7 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
         pose0_sigma_yaw_deg=0.0,
     )
     if fe.profile == "real-sidescan":
-        cfg = replace(
-            cfg,
-            normalization=REAL_SIDESCAN.normalization,
-            min_area_m2=fe.min_area_m2,
-            max_extent_m=REAL_SIDESCAN.max_extent_m,
-            drop_first_return_edge=REAL_SIDESCAN.drop_first_return_edge,
-            require_shadow=REAL_SIDESCAN.require_shadow,
-        )
+        cfg = replace(with_real_sidescan_rules(cfg), min_area_m2=fe.min_area_m2)
     if fe.max_extent_m is not None:
         cfg = replace(cfg, max_extent_m=fe.max_extent_m)
     return cfg

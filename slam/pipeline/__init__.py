@@ -12,6 +12,7 @@ from slam.pipeline.config import (
     build_estimator,
     make_frontend,
     segmenter,
+    with_real_sidescan_rules,
 )
 from slam.pipeline.frame import SONAR_KINDS, FrameTruth, SonarFrame, SonarGeometry
 from slam.pipeline.lagged import LaggedSlam, PoseRecord, apply_increment
@@ -42,4 +43,5 @@ __all__ = [
     "replay",
     "score_polar",
     "segmenter",
+    "with_real_sidescan_rules",
 ]

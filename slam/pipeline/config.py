@@ -135,6 +135,20 @@ REAL_SIDESCAN = replace(
     require_shadow=True,
 )
 
+#: the image rules of REAL_SIDESCAN, which a simulated scenario's ``[frontend] profile =
+#: "real-sidescan"`` takes (its pose prior, speed floor and speckle area stay its own)
+REAL_SIDESCAN_IMAGE_RULES = (
+    "normalization",
+    "max_extent_m",
+    "drop_first_return_edge",
+    "require_shadow",
+)
+
+
+def with_real_sidescan_rules(config: PipelineConfig) -> PipelineConfig:
+    """``config`` with REAL_SIDESCAN's image rules (REAL_SIDESCAN_IMAGE_RULES)."""
+    return replace(config, **{f: getattr(REAL_SIDESCAN, f) for f in REAL_SIDESCAN_IMAGE_RULES})
+
 
 def segmenter(method: str, preset: str) -> Callable[[np.ndarray], tuple[np.ndarray, list]]:
     """Adapter image -> (labels, regions) over slam.frontend.segmentation. Preset
