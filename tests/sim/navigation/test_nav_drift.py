@@ -96,6 +96,20 @@ def _straight(n=400, u=1.5, hz=20.0):
     return [_state(t=k / hz, x=u * k / hz, v=(u, 0.0, 0.0)) for k in range(n + 1)]
 
 
+def _composed_cuts(nav, states, every=4):
+    """Poll ``nav`` along ``states`` and compose the odometry cut every ``every`` samples
+    as SLAM does: yields (x, var_x), the composed distance along x and its variance,
+    after each cut."""
+    x, var_x = 0.0, 0.0
+    for k, st in enumerate(states):
+        nav.poll(st)
+        if k and k % every == 0:
+            inc = nav.odometry(st.t)
+            x += inc.delta[0]
+            var_x += inc.cov[0, 0]
+            yield x, var_x
+
+
 @pytest.mark.parametrize("matched", [True, False])
 def test_scale_error_drift_and_its_composed_covariance_closed_form(matched):
     """Straight line, only a DVL scale error s: the dead-reckoned distance is (1+s) d
@@ -109,14 +123,8 @@ def test_scale_error_drift_and_its_composed_covariance_closed_form(matched):
         np.random.default_rng(1),
         initial_velocity_body=states[0].velocity_body,
     )
-    x, var_x, n = 0.0, 0.0, 0
-    for k, st in enumerate(states):
-        nav.poll(st)
-        if k and k % 4 == 0:
-            inc = nav.odometry(st.t)
-            x += inc.delta[0]
-            var_x += inc.cov[0, 0]
-            n += 1
+    cuts = list(_composed_cuts(nav, states))
+    (x, var_x), n = cuts[-1], len(cuts)
     d = states[-1].position[0]
     assert x == pytest.approx((1 + nav.dvl.scale_error) * d, rel=1e-9)
     # linearized at the measured velocity: the dead-reckoned distance x = (1+s) d
@@ -140,15 +148,10 @@ def test_matched_covariance_after_a_shrinking_error_is_not_added_again():
         np.random.default_rng(2),
         initial_velocity_body=states[0].velocity_body,
     )
-    x, var_x, x_max = 0.0, 0.0, 0.0
-    for k, st in enumerate(states):
-        nav.poll(st)
-        if k and k % 4 == 0:
-            inc = nav.odometry(st.t)
-            x += inc.delta[0]
-            var_x += inc.cov[0, 0]
-            x_max = max(x_max, abs(x))
-            assert var_x >= (sigma_s * x) ** 2 * (1 - 1e-6)
+    x_max = 0.0
+    for x, var_x in _composed_cuts(nav, states):
+        x_max = max(x_max, abs(x))
+        assert var_x >= (sigma_s * x) ** 2 * (1 - 1e-6)
     assert var_x == pytest.approx((sigma_s * x_max) ** 2, rel=1e-3)
 
 
