@@ -7,25 +7,14 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from vector_env_pairs import batch_and_singles
 
 import sim.envs  # noqa: F401
 
 
-def _pair(n, seeds, max_steps, nav):
-    venv = gym.make_vec(
-        "undersea/WaypointNav-v0",
-        num_envs=n,
-        vectorization_mode="vector_entry_point",
-        nav_sensors=nav,
-        max_episode_steps=max_steps,
-    )
-    singles = [
-        gym.make("undersea/WaypointNav-v0", nav_sensors=nav, max_episode_steps=max_steps)
-        for _ in range(n)
-    ]
-    ov, _ = venv.reset(seed=seeds)
-    os_ = np.array([e.reset(seed=s)[0] for e, s in zip(singles, seeds)])
-    np.testing.assert_array_equal(ov, os_)
+def _pair(seeds, max_steps, nav):
+    venv, ov, singles, os_ = batch_and_singles("undersea/WaypointNav-v0", seeds, max_steps, nav)
+    np.testing.assert_array_equal(ov, np.array(os_))
     return venv, singles
 
 
@@ -37,7 +26,7 @@ def test_batch_equals_single_envs_through_truncation_and_autoreset(nav):
     returns the reset observation (gymnasium's NEXT_STEP autoreset, the single env reset
     without a seed)."""
     n, seeds = 3, [5, 6, 7]
-    venv, singles = _pair(n, seeds, 15, nav)
+    venv, singles = _pair(seeds, 15, nav)
     rng = np.random.default_rng(1)
     done = np.zeros(n, bool)
     resets = 0
@@ -64,7 +53,7 @@ def test_collision_terminates_like_the_single_env():
     """Full thrust, elevator hard over: the batch ends the episodes at the same steps as
     single envs, the collisions with the -50 penalty."""
     n, seeds = 2, [3, 4]
-    venv, singles = _pair(n, seeds, 3000, False)
+    venv, singles = _pair(seeds, 3000, False)
     a = np.tile(np.array([1.0, 0.0, -1.0], np.float32), (n, 1))  # thrust, elevator down
     for _ in range(600):
         ov, _, tv, _, info = venv.step(a)

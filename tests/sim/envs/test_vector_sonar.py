@@ -7,27 +7,16 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from vector_env_pairs import batch_and_singles
 
 import sim.envs  # noqa: F401
 
 pytestmark = pytest.mark.filterwarnings("ignore:.*Box observation space.*infinity")
 
 
-def _pair(n, seeds, max_steps, nav):
-    venv = gym.make_vec(
-        "undersea/SonarSurvey-v0",
-        num_envs=n,
-        vectorization_mode="vector_entry_point",
-        nav_sensors=nav,
-        max_episode_steps=max_steps,
-    )
-    singles = [
-        gym.make("undersea/SonarSurvey-v0", nav_sensors=nav, max_episode_steps=max_steps)
-        for _ in range(n)
-    ]
-    ov, _ = venv.reset(seed=seeds)
-    for i, (e, s) in enumerate(zip(singles, seeds)):
-        o, _ = e.reset(seed=s)
+def _pair(seeds, max_steps, nav):
+    venv, ov, singles, os_ = batch_and_singles("undersea/SonarSurvey-v0", seeds, max_steps, nav)
+    for i, o in enumerate(os_):
         np.testing.assert_array_equal(ov["nav"][i], o["nav"])
         np.testing.assert_array_equal(ov["waterfall"][i], o["waterfall"])
     return venv, singles
@@ -41,7 +30,7 @@ def test_batch_equals_single_envs_through_truncation_and_autoreset(nav):
     reset observation (gymnasium's NEXT_STEP autoreset, the single env reset without a
     seed)."""
     n, seeds = 3, [5, 6, 7]
-    venv, singles = _pair(n, seeds, 8, nav)
+    venv, singles = _pair(seeds, 8, nav)
     rng = np.random.default_rng(1)
     done = np.zeros(n, bool)
     resets = 0
