@@ -47,6 +47,12 @@ DISPLAY_PARAMETERS = (
 )
 DISPLAY_BITS = 8
 
+#: optional free parameters of the ray-cast models: ``--low-grazing`` (the sediment law's
+#: knee below which it falls faster than Lambert; fitted with the far-range level) and
+#: ``--fit-noise`` (the receiver's noise before TVG, beside the volume reverberation).
+KNEE_PARAMETER = Parameter("low_grazing_knee_deg", 2.0, 45.0, 15.0)
+NOISE_PARAMETER = Parameter("noise_level_db", -20.0, 100.0, 40.0)
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("real", help="real recording: .xtf, .npy/.npz or image waterfall")
@@ -85,6 +91,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report-pings", default="second", help="pings to report on too")
     parser.add_argument("--altitude", type=float, default=None, help="m (default: recording)")
     parser.add_argument("--max-range", type=float, default=None, help="m (default: recording)")
+    parser.add_argument(
+        "--altitude-track",
+        choices=("legs", "median"),
+        default="legs",
+        help="legs (default): each simulated leg flies the median altitude of its share of "
+        "the recording's pings (consecutive chunks), so the survey sees the recording's "
+        "range of grazing angles; median: every leg at the median altitude",
+    )
+    parser.add_argument(
+        "--low-grazing",
+        action="store_true",
+        help="ray-cast models: also fit the sediment law's low-grazing knee "
+        "(low_grazing_knee_deg) with the far-range seabed level as a target (within 2 dB)",
+    )
+    parser.add_argument(
+        "--fit-noise",
+        action="store_true",
+        help="ray-cast models: also fit the receiver noise before TVG (noise_level_db)",
+    )
     parser.add_argument("--sim-pings", type=int, default=128, help="pings per simulated run")
     parser.add_argument(
         "--sim-legs",
@@ -129,7 +154,22 @@ def survey_geometry(rec, altitude: float | None, max_range: float | None) -> tup
     return float(altitude), float(rng_m)
 
 
-def _model(args, altitude: float, max_range: float, samples: int, target):
+def leg_altitudes(rec, legs: int, max_range: float, mode: str) -> tuple[float, ...]:
+    """Per-leg altitudes (m) flying the recording's altitude track: the median positive
+    nav altitude of each of ``legs`` consecutive chunks of its pings (clipped to
+    [0.5, 0.95·range]); () for ``mode`` "median" or a recording without altitude."""
+    if mode != "legs" or rec.altitude_m is None or legs < 2:
+        return ()
+    out = []
+    for chunk in np.array_split(np.asarray(rec.altitude_m, float), legs):
+        ok = chunk[chunk > 0]
+        if ok.size == 0:
+            return ()
+        out.append(float(np.clip(np.median(ok), 0.5, 0.95 * max_range)))
+    return tuple(out)
+
+
+def _model(args, altitude: float, max_range: float, samples: int, target, legs=()):
     """(simulate callable, parameters, statistics config of the model's images)."""
     if args.model == "statistical":
         model = StatisticalSideScan(
@@ -155,9 +195,11 @@ def _model(args, altitude: float, max_range: float, samples: int, target):
             seed=args.seed,
             segments=args.sim_legs,
             display_bits=DISPLAY_BITS if args.model == "raycast-display" else 0,
+            leg_altitudes_m=legs,
         )
     )
     free = DISPLAY_PARAMETERS if args.model == "raycast-display" else RAYCAST_PARAMETERS
+    free = free + (KNEE_PARAMETER,) * args.low_grazing + (NOISE_PARAMETER,) * args.fit_noise
     model = survey
     if args.model == "raycast" and args.gain == "solve":
         sat = (target.port.saturation, target.starboard.saturation)
@@ -217,12 +259,21 @@ def _held_out(args, simulate, values, rep_rec, report, model_cfg):
     if spec is None:
         return float("nan"), compare(waterfall_statistics(simulate(values), model_cfg), report)
     altitude, _ = survey_geometry(rep_rec, args.altitude, args.max_range)
-    again = type(survey)(replace(spec, altitude_m=altitude))
+    legs = leg_altitudes(rep_rec, spec.segments, spec.max_range_m, args.altitude_track)
+    again = type(survey)(replace(spec, altitude_m=altitude, leg_altitudes_m=legs))
     img = again(values)
     fr = None
     if args.bottom == "altitude":  # as in the fit: the survey's known altitude
-        fr = np.full(img.shape[0], altitude / (spec.max_range_m / spec.samples_per_side))
+        fr = model_first_return(again.spec)
     return altitude, compare(waterfall_statistics(img, model_cfg, first_return=fr), report)
+
+
+def model_first_return(spec) -> np.ndarray:
+    """(pings,) first-return sample of the survey's flat seabed: each leg's altitude over
+    the range per sample."""
+    per_leg = spec.pings // spec.segments
+    alt = np.repeat([spec.leg_altitude(k) for k in range(spec.segments)], per_leg)
+    return alt / (spec.max_range_m / spec.samples_per_side)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -243,8 +294,9 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise ValueError(f"REAL {args.real}: {exc}") from exc
         altitude, max_range = survey_geometry(fit_rec, args.altitude, args.max_range)
+        legs = leg_altitudes(fit_rec, args.sim_legs, max_range, args.altitude_track)
         simulate, params, model_cfg = _model(
-            args, altitude, max_range, rec.intensity.shape[1] // 2, target
+            args, altitude, max_range, rec.intensity.shape[1] // 2, target, legs
         )
         result = calibrate(
             simulate,
@@ -254,8 +306,9 @@ def run(args: argparse.Namespace) -> int:
             good_enough=args.good_enough,
             model_config=model_cfg,
             fit_tile_texture=args.model != "statistical",
+            fit_far_range=args.low_grazing and args.model != "statistical",
             model_first_return=(
-                altitude / (max_range / (rec.intensity.shape[1] // 2))
+                model_first_return(simulate.spec)
                 if args.bottom == "altitude" and args.model != "statistical"
                 else None
             ),
@@ -277,6 +330,7 @@ def run(args: argparse.Namespace) -> int:
         "report_pings": [rep_sl.start, rep_sl.stop],
         "model": args.model,
         "altitude_m": altitude,
+        "leg_altitudes_m": list(legs),
         "max_range_m": max_range,
         "samples_per_side": rec.intensity.shape[1] // 2,
         "sim_pings": args.sim_pings,

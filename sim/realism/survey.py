@@ -37,7 +37,9 @@ class SurveySpec:
     display_bits: 0 = linear intensity after TVG, gain and ADC (µPa²); n > 0 = what a
     recreational unit stores: the log-compressed display (display_floor_db,
     dynamic_range_db) quantised to n-bit levels L, returned as L² (the readers take stored
-    samples as amplitudes)."""
+    samples as amplitudes); leg_altitudes_m: one altitude per leg (m) to fly a recording's
+    altitude track (e.g. the median of each of its consecutive chunks), empty = altitude_m
+    for every leg."""
 
     altitude_m: float
     max_range_m: float
@@ -49,6 +51,7 @@ class SurveySpec:
     segments: int = 1
     segment_spacing_m: float = 30.0
     display_bits: int = 0
+    leg_altitudes_m: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         if not 0.5 <= self.altitude_m < self.max_range_m:
@@ -70,6 +73,21 @@ class SurveySpec:
             raise ValueError(f"display_bits = {self.display_bits!r}; allowed 0 .. 16")
         if not 0 < self.segment_spacing_m <= 1000:
             raise ValueError(f"segment_spacing_m = {self.segment_spacing_m}; allowed (0, 1000] m")
+        if self.leg_altitudes_m and len(self.leg_altitudes_m) != self.segments:
+            raise ValueError(
+                f"leg_altitudes_m has {len(self.leg_altitudes_m)} values; need one per leg "
+                f"(segments = {self.segments})"
+            )
+        for a in self.leg_altitudes_m:
+            if not 0.5 <= a < self.max_range_m:
+                raise ValueError(
+                    f"leg_altitudes_m holds {a}; allowed 0.5 <= altitude < max_range_m "
+                    f"({self.max_range_m})"
+                )
+
+    def leg_altitude(self, leg: int) -> float:
+        """Altitude of leg ``leg`` (m)."""
+        return float(self.leg_altitudes_m[leg]) if self.leg_altitudes_m else self.altitude_m
 
     @property
     def extent_m(self) -> float:
@@ -92,7 +110,7 @@ class RaycastSurvey:
     def start_value(self, name: str) -> float:
         """The preset's own value of a realism or acoustic field (``range_cell_m`` None →
         the sonar's range resolution c/2B; ``display_floor_db`` None → its default
-        SL + 10·log10 μ − 60 dB), to start a fit from."""
+        SL + 10·log10 μ − 60 dB; ``low_grazing_knee_deg`` None → 15°), to start a fit from."""
         cfg = self.config({})
         ac = cfg.acoustic
         v = getattr(ac.realism, name) if hasattr(ac.realism, name) else getattr(ac, name)
@@ -100,6 +118,8 @@ class RaycastSurvey:
             v = cfg.range_resolution
         if v is None and name == "display_floor_db":
             v = ac.source_level_db + ac.lambert_mu_db - 60.0
+        if v is None and name == "low_grazing_knee_deg":
+            v = 15.0  # off in the preset: start the fit from a knee near sand's data
         if v is None:
             raise ValueError(f"preset {self.spec.preset!r}: {name} is off; cannot fit it")
         return float(v)
@@ -151,7 +171,8 @@ class RaycastSurvey:
         rows = []
         for i in range(spec.pings):
             leg, k = divmod(i, per_leg)
-            sc.move_vehicle(x0 + leg * spec.segment_spacing_m + k * step, 0.0, spec.altitude_m)
+            x = x0 + leg * spec.segment_spacing_m + k * step
+            sc.move_vehicle(x, 0.0, spec.leg_altitude(leg))
             rows.append(sonar.ping(sc.data, rng).intensity)
         out = np.asarray(rows, dtype=np.float64)
         if spec.display_bits:

@@ -41,7 +41,10 @@ class RealismConfig:
     ripple_wavelength_m / ripple_slope / ripple_direction_deg: sub-mesh sand ripples as a
     local slope (rms slope, 0 = off) tilting the normal of sandy hits; k_clutter: K-type
     clutter, a world-fixed unit-mean gamma texture per clutter_cell_m cell with the
-    sediment's shape; sediment_gain_db: offset of every sediment law).
+    sediment's shape; sediment_gain_db: offset of every sediment law;
+    low_grazing_knee_deg / low_grazing_exponent: below the knee grazing angle θk every
+    sediment law falls faster than Lambert, × 1 / (1 + (sin θk / sin θg)^m), m the exponent
+    (None = off: the laws as published, sin² at low grazing); see :mod:`sim.sonar.sediment`).
     Speckle (item 2): speckle_correlated: complex Gaussian speckle on a sub-sample grid
     filtered by the range cell (range_cell_m, None = the sonar's range_resolution c/2B)
     and carried across pings by an AR(1) with the along-track beam overlap
@@ -79,6 +82,8 @@ class RealismConfig:
     k_clutter: bool = True
     clutter_cell_m: float = 0.06
     sediment_gain_db: float = 0.0
+    low_grazing_knee_deg: float | None = None
+    low_grazing_exponent: float = 4.0
     speckle_correlated: bool = True
     range_cell_m: float | None = None
     along_track_overlap: bool = True
@@ -117,6 +122,8 @@ class RealismConfig:
         _rng("ripple_direction_deg", self.ripple_direction_deg, -360.0, 360.0)
         _rng("clutter_cell_m", self.clutter_cell_m, 0.005, 5.0)
         _rng("sediment_gain_db", self.sediment_gain_db, -40.0, 40.0)
+        _opt("low_grazing_knee_deg", self.low_grazing_knee_deg, 0.5, 60.0)
+        _rng("low_grazing_exponent", self.low_grazing_exponent, 0.5, 12.0)
         _opt("range_cell_m", self.range_cell_m, 1e-4, 5.0)
         _opt("volume_sv_db", self.volume_sv_db, -150.0, -20.0)
         _opt("sea_state", self.sea_state, 0.0, 6.0)

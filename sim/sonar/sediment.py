@@ -15,6 +15,21 @@ sediment follows the ordering of Lyons & Abraham (1999, JASA 106(3) 1303) for
 high-frequency clutter: mud ~ Rayleigh (ν → ∞), sand weakly, gravel and rock strongly
 non-Rayleigh.
 
+Low grazing (``low_grazing_knee_deg``, off by default): Lambert's sin² θg (θg grazing) holds
+for a sand seabed only above its critical angle (≈ 25–30° for sand, sound-speed ratio
+1.1–1.2). Below it the sediment-volume term of the APL-UW high-frequency model (APL-UW
+TR 9407, 1994; Jackson & Richardson 2007, ch. 13) fades, because the transmission into
+the sediment becomes evanescent, and what is left is interface-roughness scattering,
+whose small-roughness perturbation term goes as sin⁴ θg · W(2k cos θg) — faster than
+Lambert. One factor per hit models that change of slope with one free angle,
+
+    σ(θg) → σ(θg) / (1 + (sin θk / sin θg)^m),
+
+Lambert above the knee θk, sin^(2+m) θg below it (m = ``low_grazing_exponent``, 4 by
+default: the perturbation term's sin⁴). θk is fitted to a recording (``undersea
+calibrate --low-grazing``) from passes at different altitudes; it stands for the product
+of the law and the vertical beam near horizontal, which a flat seabed cannot separate.
+
 The field: a seeded periodic grid (``FIELD_CELL_M``) of smooth Gaussian noise per
 sediment; the sediment of a place is the soft arg-max of noise + an offset per sediment,
 the offsets fitted so the arg-max areas equal the requested fractions (patches with
@@ -114,6 +129,12 @@ def _fields(seed: int, fractions: tuple, patch_px: float, tex_px: float):
     return np.ascontiguousarray(np.concatenate([w, t[None]]).transpose(1, 2, 0), np.float32)
 
 
+def low_grazing_factor(sin_grazing: np.ndarray, knee_deg: float, exponent: float) -> np.ndarray:
+    """1 / (1 + (sin θk / sin θg)^m) at sin θg (clipped to [1e-6, 1]); see the module."""
+    sg = np.clip(np.asarray(sin_grazing, float), 1e-6, 1.0)
+    return 1.0 / (1.0 + (np.sin(np.deg2rad(knee_deg)) / sg) ** exponent)
+
+
 @lru_cache(maxsize=16)
 def _gamma_quantiles(shape: float, n: int = 4097) -> np.ndarray:
     """Unit-mean Γ(ν, 1/ν) quantiles at u = (i + ½)/n (inverse-CDF table)."""
@@ -201,6 +222,10 @@ class SedimentField:
         for j, law in enumerate(self.laws):  # four sediments, not per hit
             sig += w[:, j] * law.sigma(th)
         sig *= 10.0 ** (tex / 10.0) * self.gain
+        if self.cfg.low_grazing_knee_deg is not None:
+            sig *= low_grazing_factor(
+                cos_i, self.cfg.low_grazing_knee_deg, self.cfg.low_grazing_exponent
+            )
         if self.cfg.k_clutter:
             shapes = np.array([law.k_shape for law in self.laws])
             sig *= self.clutter(xy, shapes[np.argmax(w, axis=1)])

@@ -15,7 +15,8 @@ units of the issue-11 tolerance* (1 = at the edge of the tolerance): speckle CV 
 dynamic range, log10(saturation + SATURATION_FLOOR) (factor 2 ↔ log10 2; the floor keeps
 the residual smooth where a model barely clips), the texture (LBP) JS
 distance to the recording's histogram over 0.1, the seabed texture at the patch scale
-(``texture_tile_db``, 1-dB units; not an issue-11 row), and — only to guide the gain where a model
+(``texture_tile_db``, 1-dB units; not an issue-11 row), optionally the far-range seabed
+level (``far_range_db``, 2-dB units), and — only to guide the gain where a model
 does not clip yet — the headroom (clip level re P99, dB) in 1-dB units. A model call that fails (``ValueError``: no seabed
 in the simulated image, …) costs ``FAILED_LOSS``.
 """
@@ -60,14 +61,24 @@ RESIDUAL_KEYS = tuple(f"{k}.{s}" for k in CONVERGENCE_FEATURES for s in SIDES) +
 )
 #: the optional convergence feature of ``calibrate(..., fit_tile_texture=True)``
 TILE_FEATURE = "texture_tile_db"
+#: tolerance of the far-range seabed level (statistics.far_range_level), dB: not an
+#: issue-11 row; fitted with the low-grazing law so the level's fall with altitude is
+#: the recording's
+FAR_RANGE_TOLERANCE_DB = 2.0
+#: the optional convergence feature of ``calibrate(..., fit_far_range=True)``
+FAR_FEATURE = "far_range_db"
 
 
-def residual_keys(fit_tile_texture: bool = False) -> tuple[tuple[str, ...], int]:
+def residual_keys(
+    fit_tile_texture: bool = False, fit_far_range: bool = False
+) -> tuple[tuple[str, ...], int]:
     """(residual keys, how many of them are convergence features), the seabed texture at
-    the patch scale among them when ``fit_tile_texture``."""
-    if not fit_tile_texture:
+    the patch scale among them when ``fit_tile_texture``, the far-range level when
+    ``fit_far_range``."""
+    extra = (TILE_FEATURE,) * fit_tile_texture + (FAR_FEATURE,) * fit_far_range
+    if not extra:
         return RESIDUAL_KEYS, 2 * len(CONVERGENCE_FEATURES)
-    conv = (*CONVERGENCE_FEATURES, TILE_FEATURE)
+    conv = (*CONVERGENCE_FEATURES, *extra)
     keys = tuple(f"{k}.{s}" for k in conv for s in SIDES)
     return keys + tuple(f"headroom_db.{s}" for s in SIDES), 2 * len(conv)
 
@@ -141,6 +152,7 @@ def residuals(sim: WaterfallStatistics, real: WaterfallStatistics) -> dict[str, 
         out[f"texture_tile_db.{side}"] = (
             a.texture_tile_db - b.texture_tile_db
         ) / TEXTURE_TILE_TOLERANCE_DB
+        out[f"far_range_db.{side}"] = (a.far_range_db - b.far_range_db) / FAR_RANGE_TOLERANCE_DB
         out[f"headroom_db.{side}"] = (a.headroom_db - b.headroom_db) / HEADROOM_TOLERANCE_DB
     return out
 
@@ -198,7 +210,8 @@ def calibrate(
     diff_step: float = 0.03,
     model_config: RealismConfig | None = None,
     fit_tile_texture: bool = False,
-    model_first_return: float | None = None,
+    fit_far_range: bool = False,
+    model_first_return: float | np.ndarray | None = None,
 ) -> CalibrationResult:
     """Fit ``parameters`` of ``simulate`` to the ``target`` statistics.
 
@@ -208,8 +221,10 @@ def calibrate(
     patch scale (``texture_tile_db``, within 1 dB) is a convergence feature too — for a
     model whose texture level and size are free (the ray-cast survey), so the texture
     that gives the in-patch statistics is not painted stronger across patches than the
-    recording's. ``model_first_return``: the model images' first bottom return (sample
-    index, every ping) instead of the detector — for a model whose water column is not
+    recording's. ``fit_far_range``: the far-range seabed level (``far_range_db``, within
+    2 dB) is a convergence feature too — for a model whose low-grazing law is free.
+    ``model_first_return``: the model images' first bottom return (sample index, every
+    ping, or one per ping) instead of the detector — for a model whose water column is not
     darker than its seabed (recreational displays), flown at a known altitude.
 
     Converged means every feature within ``max_residual`` tolerances (issue 11: every row
@@ -226,7 +241,7 @@ def calibrate(
     if len(set(names)) != len(names):
         raise ValueError(f"parameter names must be unique, got {names}")
     cache: dict[tuple, tuple[np.ndarray, WaterfallStatistics | None, dict]] = {}
-    keys, n_conv = residual_keys(fit_tile_texture)
+    keys, n_conv = residual_keys(fit_tile_texture, fit_far_range)
     failed = np.full(len(keys), math.sqrt(FAILED_LOSS))
 
     def values_of(u: np.ndarray) -> dict[str, float]:
@@ -241,7 +256,9 @@ def calibrate(
                 img = simulate(values_of(np.asarray(key)))
                 fr = None
                 if model_first_return is not None:
-                    fr = np.full(np.shape(img)[0], float(model_first_return))
+                    fr = np.broadcast_to(
+                        np.asarray(model_first_return, float), np.shape(img)[:1]
+                    ).copy()
                 st = waterfall_statistics(img, model_config, first_return=fr)
             except ValueError:
                 cache[key] = (failed, None, {})

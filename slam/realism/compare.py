@@ -29,6 +29,7 @@ TOLERANCES: dict[str, tuple[str, str, float]] = {
 #: label): not part of "all within" nor of the calibration's convergence.
 REPORTED: dict[str, str] = {
     "texture_tile_db": "seabed texture, 16-px tile means (dB)",
+    "far_range_db": "far-range seabed (outer quarter) re profile peak (dB)",
 }
 #: saturation fractions both below this match whatever their ratio (a handful of clipped
 #: samples is noise, not a level).

@@ -77,6 +77,7 @@ class SideStatistics:
     n_patches: int
     bottom_fraction: float
     texture_tile_db: float  # seabed texture at the patch scale (tile_texture_db), dB
+    far_range_db: float  # far-range seabed level re seabed-profile peak (far_range_level), dB
     hist_intensity: np.ndarray = field(repr=False)
     hist_lbp: np.ndarray = field(repr=False)
 
@@ -92,6 +93,7 @@ class SideStatistics:
         "n_patches",
         "bottom_fraction",
         "texture_tile_db",
+        "far_range_db",
     )
 
     def scalars(self) -> dict[str, float]:
@@ -216,6 +218,18 @@ def tile_texture_db(side: np.ndarray, seabed: np.ndarray, n: int) -> float:
     return float(1.4826 * np.median(np.abs(d - np.median(d))))
 
 
+def far_range_level(side: np.ndarray, seabed: np.ndarray, peak: float) -> float:
+    """Far-range seabed level, dB: 10·log10 of the median seabed intensity over the outer
+    quarter of the side (samples ≥ 3S/4: the lowest grazing angles) over the seabed-profile
+    peak. It falls as the altitude falls when the seabed law falls faster than the
+    spreading/area terms at low grazing (docs/realism.md). nan without far seabed."""
+    far = seabed.copy()
+    far[:, : (3 * side.shape[1]) // 4] = False
+    if not far.any() or not peak > 0:
+        return float("nan")
+    return float(10.0 * np.log10(max(float(np.median(side[far])), 1e-300) / peak))
+
+
 def _nanmedian(x: np.ndarray) -> float:
     """Median of the finite values (constant patches have no correlation); nan if none."""
     x = x[np.isfinite(x)]
@@ -281,6 +295,7 @@ def side_statistics(
         n_patches=int(patches.shape[0]),
         bottom_fraction=track.found_fraction,
         texture_tile_db=tile_texture_db(side, seabed, cfg.patch),
+        far_range_db=far_range_level(floored, seabed, peak),
         hist_intensity=intensity_histogram(floored, seabed),
         hist_lbp=lbp_histogram(floored, seabed),
     )

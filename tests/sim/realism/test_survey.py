@@ -94,3 +94,27 @@ def test_display_mode_is_the_quantised_log_display_of_the_linear_output():
     assert np.mean(disp == ref) > 0.999
     assert RaycastSurvey(spec).full_scale({}) == 255.0**2
     assert np.array_equal(np.sqrt(disp), np.round(np.sqrt(disp)))
+
+
+def test_each_leg_flies_its_own_altitude():
+    """Two legs at 4 m and 8 m: each leg's first bottom return (the detector of
+    slam.realism.bottom, median over its pings) lies at its altitude over the bin width."""
+    from slam.realism.bottom import first_bottom_return
+
+    spec = SurveySpec(6.0, 20.0, 256, pings=32, segments=2, leg_altitudes_m=(4.0, 8.0))
+    w = RaycastSurvey(spec)({"receiver_gain_db": -20.0})
+    bin_m = 20.0 / 256
+    port = w[:, :256][:, ::-1]  # near range first
+    for leg, alt in enumerate((4.0, 8.0)):
+        fr = first_bottom_return(port[16 * leg : 16 * leg + 16]).first_return
+        assert np.nanmedian(fr) * bin_m == pytest.approx(alt, abs=4 * bin_m)
+    assert [spec.leg_altitude(k) for k in (0, 1)] == [4.0, 8.0]
+
+
+@pytest.mark.parametrize(
+    "legs, message",
+    [((4.0,), "one per leg"), ((4.0, 25.0), "leg_altitudes_m holds 25.0")],
+)
+def test_bad_leg_altitudes_are_named(legs, message):
+    with pytest.raises(ValueError, match=message):
+        SurveySpec(6.0, 20.0, 128, pings=32, segments=2, leg_altitudes_m=legs)

@@ -194,3 +194,19 @@ def test_tile_texture_ignores_a_few_bright_target_tiles(rng, waterfall_factory):
     sb[0][:48, :48] *= 100.0
     with_wreck = waterfall_statistics(waterfall_factory(*sb, rng)).port.texture_tile_db
     assert with_wreck == pytest.approx(plain, rel=0.1)
+
+
+@pytest.mark.parametrize("far_level", [1.0, 0.05])
+def test_far_range_level_is_the_outer_quarter_median_re_the_profile_peak(
+    rng, waterfall_factory, far_level
+):
+    """Exponential seabed of mean 1 whose outer quarter of the side (samples ≥ 3S/4) has
+    mean ``far_level``: its median is ln 2 · far_level, the profile peak 1 (to the few %
+    of a 16-sample mean over the pings), so far_range_db = 10·log10(ln 2 · far_level)."""
+    p = 256
+    s = WC_SAMPLES + S_SEABED
+    mean = np.ones(S_SEABED)
+    mean[(3 * s) // 4 - WC_SAMPLES :] = far_level
+    sb = [rng.exponential(1.0, (p, S_SEABED)) * mean for _ in range(2)]
+    for st in waterfall_statistics(waterfall_factory(*sb, rng)).sides().values():
+        assert st.far_range_db == pytest.approx(10 * np.log10(np.log(2) * far_level), abs=0.3)
