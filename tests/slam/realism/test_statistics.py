@@ -208,5 +208,5 @@ def test_far_range_level_is_the_outer_quarter_median_re_the_profile_peak(
     mean = np.ones(S_SEABED)
     mean[(3 * s) // 4 - WC_SAMPLES :] = far_level
     sb = [rng.exponential(1.0, (p, S_SEABED)) * mean for _ in range(2)]
-    for st in waterfall_statistics(waterfall_factory(*sb, rng)).sides().values():
-        assert st.far_range_db == pytest.approx(10 * np.log10(np.log(2) * far_level), abs=0.3)
+    for side in waterfall_statistics(waterfall_factory(*sb, rng)).sides().values():
+        assert side.far_range_db == pytest.approx(10 * np.log10(np.log(2) * far_level), abs=0.3)
