@@ -197,12 +197,15 @@ def apply_speckle_noise(
     return s
 
 
-def tvg_gain(r: np.ndarray, alpha_db_m: float, mode: str) -> np.ndarray:
-    """Time-varying gain compensating two-way spreading (r⁴) and optionally absorption."""
+def tvg_gain(r: np.ndarray, alpha_db_m: float, mode: str, exponent: float = 4.0) -> np.ndarray:
+    """Time-varying gain compensating two-way spreading (r⁴, "40 log R") and optionally
+    absorption. ``exponent`` n: r^n instead (n = 3: the "30 log R" of side-scan receivers,
+    which also compensates the footprint growing as r; Blondel 2009, *The Handbook of
+    Sidescan Sonar*, §4.3)."""
     r = np.maximum(r, 1.0)
     if mode == "none":
         return np.ones_like(r)
-    g = r**4
+    g = r**4 if exponent == 4.0 else r**exponent
     if mode == "spreading_absorption":
         g = g * 10.0 ** (0.2 * alpha_db_m * r)
     return g

@@ -70,7 +70,9 @@ class SideScanChain:
             if rz.volume_sv_db is not None
             else None
         )
-        self.tvg = tvg_gain(ranges, mount.alpha_db_m, ac.tvg)
+        self.tvg = tvg_gain(
+            ranges, mount.alpha_db_m, ac.tvg, 4.0 if rz.tvg_exponent is None else rz.tvg_exponent
+        )
 
     def _beam_ratio(self, altitude, depth):
         """One-way vertical beam gain towards the surface image over the direct ray."""

@@ -55,7 +55,8 @@ class RealismConfig:
     sea-surface backscatter (None = off); surface_multipath_loss_db: loss of the first
     surface-bounce path of the seabed echo (None = off); upward_sidelobe_db: floor of the
     one-way vertical pattern above horizontal (side-scan staves are baffled on top),
-    used by both surface terms; receiver_gain_db; bit_depth
+    used by both surface terms; receiver_gain_db; tvg_exponent: the TVG's spreading law
+    r^n (None = the acoustic config's tvg, r⁴; 3 = "30 log R"); bit_depth
     (amplitude bits, 0 = no quantisation/clipping) with full_scale_db the intensity after
     TVG and gain (dB re 1 µPa²) at which the ADC saturates.
     Targets (item 4): object_mu_db: Lambert μ (dB) of a reflectivity-1 object, replacing
@@ -93,6 +94,7 @@ class RealismConfig:
     surface_multipath_loss_db: float | None = 8.0
     upward_sidelobe_db: float = -25.0
     receiver_gain_db: float = 0.0
+    tvg_exponent: float | None = None
     bit_depth: int = 16
     full_scale_db: float = 150.0
     object_mu_db: float | None = -22.0
@@ -131,6 +133,7 @@ class RealismConfig:
         _opt("surface_multipath_loss_db", self.surface_multipath_loss_db, 0.0, 60.0)
         _rng("upward_sidelobe_db", self.upward_sidelobe_db, -80.0, 0.0)
         _rng("receiver_gain_db", self.receiver_gain_db, -100.0, 100.0)
+        _opt("tvg_exponent", self.tvg_exponent, 1.0, 6.0)
         if not isinstance(self.bit_depth, int) or not 0 <= self.bit_depth <= 24:
             raise ValueError(f"bit_depth = {self.bit_depth!r}; allowed: integer 0 .. 24")
         _rng("full_scale_db", self.full_scale_db, 0.0, 300.0)
