@@ -44,7 +44,10 @@ class RealismConfig:
     sediment's shape; sediment_gain_db: offset of every sediment law;
     low_grazing_knee_deg / low_grazing_exponent: below the knee grazing angle θk every
     sediment law falls faster than Lambert, × 1 / (1 + (sin θk / sin θg)^m), m the exponent
-    (None = off: the laws as published, sin² at low grazing); see :mod:`sim.sonar.sediment`).
+    (None = off: the laws as published, sin² at low grazing); see :mod:`sim.sonar.sediment`;
+    micro_slope_deg / micro_slope_cell_m: world-fixed facets of micro_slope_cell_m m, each
+    tilted by a Gaussian slope (rms micro_slope_deg per axis; None = off) — relief below
+    the mesh, which modulates the return most where the law is steep (low grazing)).
     Speckle (item 2): speckle_correlated: complex Gaussian speckle on a sub-sample grid
     filtered by the range cell (range_cell_m, None = the sonar's range_resolution c/2B)
     and carried across pings by an AR(1) with the along-track beam overlap
@@ -85,6 +88,8 @@ class RealismConfig:
     sediment_gain_db: float = 0.0
     low_grazing_knee_deg: float | None = None
     low_grazing_exponent: float = 4.0
+    micro_slope_deg: float | None = None
+    micro_slope_cell_m: float = 0.2
     speckle_correlated: bool = True
     range_cell_m: float | None = None
     along_track_overlap: bool = True
@@ -126,6 +131,8 @@ class RealismConfig:
         _rng("sediment_gain_db", self.sediment_gain_db, -40.0, 40.0)
         _opt("low_grazing_knee_deg", self.low_grazing_knee_deg, 0.5, 60.0)
         _rng("low_grazing_exponent", self.low_grazing_exponent, 0.5, 12.0)
+        _opt("micro_slope_deg", self.micro_slope_deg, 0.0, 20.0)
+        _rng("micro_slope_cell_m", self.micro_slope_cell_m, 0.01, 5.0)
         _opt("range_cell_m", self.range_cell_m, 1e-4, 5.0)
         _opt("volume_sv_db", self.volume_sv_db, -150.0, -20.0)
         _opt("sea_state", self.sea_state, 0.0, 6.0)

@@ -30,6 +30,14 @@ default: the perturbation term's sin⁴). θk is fitted to a recording (``unders
 calibrate --low-grazing``) from passes at different altitudes; it stands for the product
 of the law and the vertical beam near horizontal, which a flat seabed cannot separate.
 
+Micro-relief (``micro_slope_deg``, off by default): the seabed below the mesh as
+world-fixed square facets of ``micro_slope_cell_m``, each tilted by a Gaussian slope
+(tan of the rms angle per axis) that tilts the normal of its hits (the facet model of a
+rough surface). The return changes by d ln σ / dθg · δ: little where the law is flat
+(steep grazing), a lot below the knee, where σ goes as sin^(2+m) θg — so the seabed turns
+spiky (non-Rayleigh, correlated over a facet) at low grazing, as recorded far-range
+seabed does.
+
 The field: a seeded periodic grid (``FIELD_CELL_M``) of smooth Gaussian noise per
 sediment; the sediment of a place is the soft arg-max of noise + an offset per sediment,
 the offsets fitted so the arg-max areas equal the requested fractions (patches with
@@ -45,7 +53,7 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.ndimage import gaussian_filter
-from scipy.special import gammaincinv
+from scipy.special import gammaincinv, ndtri
 
 from sim.sonar.effects import SEDIMENT_NAMES, RealismConfig
 
@@ -199,6 +207,18 @@ class SedimentField:
         n = normal - s[:, None] * self.ripple_dir[None, :]
         return n / np.linalg.norm(n, axis=1, keepdims=True)
 
+    def micro_slope_normal(self, xy: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        """Normals (M, 3) tilted by the world-fixed facet slopes at world xy (M, 2)."""
+        cfg = self.cfg
+        if cfg.micro_slope_deg is None or cfg.micro_slope_deg <= 0:
+            return normal
+        cell = np.floor(xy / cfg.micro_slope_cell_m).astype(np.int64)
+        tan_rms = np.tan(np.deg2rad(cfg.micro_slope_deg))
+        sx = ndtri(_hash_uniform(cell[:, 0], cell[:, 1], cfg.sediment_seed + 11)) * tan_rms
+        sy = ndtri(_hash_uniform(cell[:, 0], cell[:, 1], cfg.sediment_seed + 13)) * tan_rms
+        n = normal - np.column_stack([sx, sy, np.zeros_like(sx)])
+        return n / np.linalg.norm(n, axis=1, keepdims=True)
+
     def clutter(self, xy: np.ndarray, k_shape: np.ndarray) -> np.ndarray:
         """World-fixed unit-mean gamma texture of shape ν per clutter cell (1 where ν = ∞)."""
         cell = np.floor(xy / self.cfg.clutter_cell_m).astype(np.int64)
@@ -216,6 +236,7 @@ class SedimentField:
         xy = points[:, :2]
         w, tex = self.lookup(xy)
         n = self.ripple_normal(points, normal, w[:, 1], tex)
+        n = self.micro_slope_normal(xy, n)
         cos_i = np.clip(np.abs(np.sum(n * dirs, axis=1)), 0.0, 1.0)
         th = np.arccos(cos_i)
         sig = np.zeros(points.shape[0])
