@@ -49,9 +49,11 @@ DISPLAY_BITS = 8
 
 #: optional free parameters of the ray-cast models: ``--low-grazing`` (the sediment law's
 #: knee below which it falls faster than Lambert; fitted with the far-range level) and
-#: ``--fit-noise`` (the receiver's noise before TVG, beside the volume reverberation).
+#: ``--fit-noise`` (the receiver's noise before TVG, beside the volume reverberation),
+#: ``--micro-slope`` (the seabed's sub-mesh relief).
 KNEE_PARAMETER = Parameter("low_grazing_knee_deg", 2.0, 45.0, 15.0)
 NOISE_PARAMETER = Parameter("noise_level_db", -20.0, 100.0, 40.0)
+SLOPE_PARAMETER = Parameter("micro_slope_deg", 0.0, 8.0, 1.0)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -109,6 +111,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--fit-noise",
         action="store_true",
         help="ray-cast models: also fit the receiver noise before TVG (noise_level_db)",
+    )
+    parser.add_argument(
+        "--micro-slope",
+        action="store_true",
+        help="ray-cast models: also fit the seabed's micro-relief (micro_slope_deg)",
     )
     parser.add_argument("--sim-pings", type=int, default=128, help="pings per simulated run")
     parser.add_argument(
@@ -199,7 +206,12 @@ def _model(args, altitude: float, max_range: float, samples: int, target, legs=(
         )
     )
     free = DISPLAY_PARAMETERS if args.model == "raycast-display" else RAYCAST_PARAMETERS
-    free = free + (KNEE_PARAMETER,) * args.low_grazing + (NOISE_PARAMETER,) * args.fit_noise
+    free = (
+        free
+        + (KNEE_PARAMETER,) * args.low_grazing
+        + (NOISE_PARAMETER,) * args.fit_noise
+        + (SLOPE_PARAMETER,) * args.micro_slope
+    )
     model = survey
     if args.model == "raycast" and args.gain == "solve":
         sat = (target.port.saturation, target.starboard.saturation)

@@ -110,7 +110,8 @@ class RaycastSurvey:
     def start_value(self, name: str) -> float:
         """The preset's own value of a realism or acoustic field (``range_cell_m`` None →
         the sonar's range resolution c/2B; ``display_floor_db`` None → its default
-        SL + 10·log10 μ − 60 dB; ``low_grazing_knee_deg`` None → 15°), to start a fit from."""
+        SL + 10·log10 μ − 60 dB; ``low_grazing_knee_deg`` None → 15°; ``micro_slope_deg``
+        None → 1°), to start a fit from."""
         cfg = self.config({})
         ac = cfg.acoustic
         v = getattr(ac.realism, name) if hasattr(ac.realism, name) else getattr(ac, name)
@@ -120,6 +121,8 @@ class RaycastSurvey:
             v = ac.source_level_db + ac.lambert_mu_db - 60.0
         if v is None and name == "low_grazing_knee_deg":
             v = 15.0  # off in the preset: start the fit from a knee near sand's data
+        if v is None and name == "micro_slope_deg":
+            v = 1.0
         if v is None:
             raise ValueError(f"preset {self.spec.preset!r}: {name} is off; cannot fit it")
         return float(v)
