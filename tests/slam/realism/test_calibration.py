@@ -144,3 +144,39 @@ def test_model_first_return_for_a_model_without_a_dark_water_column():
         calibrate(model, target, p, max_evaluations=3)
     r = calibrate(model, target, p, max_evaluations=3, model_first_return=WC_SAMPLES)
     assert r.values["gain_db"] == 0.0 and r.loss == pytest.approx(0.0, abs=1e-12)
+
+
+def test_far_range_residual_is_in_2_db_units_and_joins_convergence_when_asked():
+    """A model whose outer quarter is 10× (10 dB) darker than the target's: the far-range
+    residual is the measured difference over 2 dB, and with ``fit_far_range`` a fit that
+    cannot move it (its one parameter leaves the far range alone) does not converge."""
+    from slam.realism.calibration import FAR_RANGE_TOLERANCE_DB, residual_keys, residuals
+    from tests.slam.realism.conftest import WC_SAMPLES, make_waterfall
+
+    rng = np.random.default_rng(4)
+    s = WC_SAMPLES + 448
+    cut = (3 * s) // 4 - WC_SAMPLES
+
+    def image(far, gain=1.0):
+        mean = np.ones(448)
+        mean[cut:] = far
+        sides = [rng.exponential(1.0, (256, 448)) * mean * gain for _ in range(2)]
+        return make_waterfall(*sides, rng)
+
+    real = waterfall_statistics(image(1.0))
+    sim = waterfall_statistics(image(0.1))
+    res = residuals(sim, real)
+    for side in ("port", "starboard"):
+        d = sim.sides()[side].far_range_db - real.sides()[side].far_range_db
+        assert d == pytest.approx(-10.0, abs=0.5)
+        assert res[f"far_range_db.{side}"] == pytest.approx(d / FAR_RANGE_TOLERANCE_DB)
+    keys, n_conv = residual_keys(fit_far_range=True)
+    assert "far_range_db.port" in keys[:n_conv]
+    with pytest.raises(CalibrationError, match="far_range_db"):
+        calibrate(
+            lambda v: image(0.1, v["g"]),
+            real,
+            [Parameter("g", 0.5, 2.0, 1.0)],
+            max_evaluations=6,
+            fit_far_range=True,
+        )
