@@ -3,8 +3,12 @@ artefact suppression, fragment merging and an optional learned second stage.
 
 Stages of :func:`detect` (each switchable in :class:`DetectorConfig`):
 
-1. burned-in annotations masked (:func:`.artefacts.mask_annotations`);
-2. first stage: a threshold method (improved Otsu by default) and Algorithm 2;
+1. burned-in annotations masked (:func:`.artefacts.mask_annotations`); optionally the
+   tile reduced to its data frame (``frame_padding``: zero padding at its edges is
+   outside the image, :func:`.tile_edges.data_frame`);
+2. first stage: a threshold method (improved Otsu by default) and Algorithm 2
+   (optionally on the binary image reflected across the tile edges, ``reflect_px``:
+   :func:`.tile_edges.algorithm2_reflected`);
 3. regions touching a no-echo area dropped (:func:`.artefacts.no_echo_mask`);
 4. fragments within ``merge_gap_px`` merged into one region (:mod:`.fragments`);
 5. geometry (``max_area_px``), local contrast (``min_contrast_db``) and the second stage
@@ -36,6 +40,7 @@ from .image import as_gray8
 from .methods import METHODS, SegmentationResult, segment
 from .presets import get_preset
 from .regions import Region
+from .tile_edges import algorithm2_reflected, data_frame, shift_regions
 
 __all__ = [
     "DETECTORS",
@@ -197,6 +202,13 @@ class DetectorConfig:
     classifier       : learned second stage, or None.
     max_count        : keep at most this many regions per image (0 = no limit), highest
                        probability first (largest first without a classifier).
+    frame_padding    : run the chain inside the tile's data frame (rows/columns of zero
+                       padding at its edges are outside the image, so an object cut by
+                       them is cut by the tile edge and not dropped as touching a no-echo
+                       area); results are in the whole tile's coordinates.
+    reflect_px       : run Algorithm 2 on the binary image extended by this many pixels
+                       of reflection across the tile edges (0 = off): a cut object keeps
+                       its parts smaller than ``a`` and its holes open to the edge fill.
     """
 
     method: str = "improved-otsu"
@@ -208,6 +220,8 @@ class DetectorConfig:
     min_contrast_db: float = -math.inf
     classifier: RegionClassifier | None = SDVD_STAGE2
     max_count: int = 2
+    frame_padding: bool = False
+    reflect_px: int = 0
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -222,6 +236,10 @@ class DetectorConfig:
             raise ValueError("DetectorConfig.min_contrast_db=nan: need a number (dB) or -inf")
         if int(self.max_count) != self.max_count or self.max_count < 0:
             raise ValueError(f"DetectorConfig.max_count={self.max_count!r}: must be >= 0")
+        if int(self.reflect_px) != self.reflect_px or self.reflect_px < 0:
+            raise ValueError(
+                f"DetectorConfig.reflect_px={self.reflect_px!r}: must be an integer >= 0 (pixels)"
+            )
 
     def with_(self, **changes) -> DetectorConfig:
         return replace(self, **changes)
@@ -252,7 +270,7 @@ def _select(
 def detect(image: np.ndarray, config: DetectorConfig | str = "sdvd-trusted") -> SegmentationResult:
     """Run the detection chain on one image; the result's ``regions``/``labels`` are the
     merged regions, its ``landmarks`` the detections, its ``gray8`` the image the first
-    stage saw (annotations masked)."""
+    stage saw (annotations masked), all in the whole image's coordinates."""
     cfg = get_detector(config) if isinstance(config, str) else config
     if not isinstance(cfg, DetectorConfig):
         raise ValueError(f"config: {type(cfg).__name__} not allowed; need DetectorConfig or a name")
@@ -260,22 +278,53 @@ def detect(image: np.ndarray, config: DetectorConfig | str = "sdvd-trusted") -> 
     g = as_gray8(image)
     if cfg.mask_annotations:
         g, _ = mask_annotations(g)
-    res = segment(g, cfg.method, get_preset(cfg.preset, g.shape))
-    labels = res.labels
-    if cfg.suppress_no_echo and res.regions:
-        ne = no_echo_mask(g)
+    rows, cols = data_frame(g) if cfg.frame_padding else (slice(None), slice(None))
+    cropped = g.shape != g[rows, cols].shape
+    gc = np.ascontiguousarray(g[rows, cols]) if cropped else g
+    res = segment(gc, cfg.method, get_preset(cfg.preset, gc.shape))
+    labels, regions = res.labels, res.regions
+    if cfg.reflect_px and regions:
+        p = res.params
+        regions, labels = algorithm2_reflected(
+            res.binary, p.a_px, p.dilate_iterations, int(cfg.reflect_px)
+        )
+        res = replace(res, mask=labels > 0)
+    relabel = False
+    if cfg.suppress_no_echo and regions:
+        ne = no_echo_mask(gc)
         if ne.any():
             bad = np.zeros(int(labels.max()) + 1, bool)
             bad[np.unique(labels[ne])] = True
             labels = np.where(bad[labels], 0, labels).astype(np.int32)
-    if cfg.merge_gap_px == 0 and labels is res.labels:
-        regions = res.regions  # nothing merged, nothing suppressed: the first stage's own
-    else:
+            relabel = True
+    if cfg.merge_gap_px or relabel:
         regions, labels = merge_fragments(labels, int(cfg.merge_gap_px))
-    landmarks = _select(cfg, g, labels, regions)
+    landmarks = _select(cfg, gc, labels, regions)
+    if cropped:
+        res, labels, regions, landmarks = _to_whole_tile(
+            res, g, rows, cols, labels, regions, landmarks
+        )
     timing = dict(res.timing_s)
     timing["total"] = time.perf_counter() - t0
     return replace(res, regions=regions, labels=labels, landmarks=landmarks, timing_s=timing)
+
+
+def _to_whole_tile(res, g, rows, cols, labels, regions, landmarks):
+    """The chain's outputs from the data frame ``g[rows, cols]`` back to the tile ``g``."""
+
+    def whole(a: np.ndarray) -> np.ndarray:
+        out = np.zeros(g.shape, a.dtype)
+        out[rows, cols] = a
+        return out
+
+    dr, dc = rows.start, cols.start
+    res = replace(res, binary=whole(res.binary), mask=whole(res.mask), gray8=g)
+    return (
+        res,
+        whole(labels),
+        shift_regions(regions, dr, dc),
+        shift_regions(landmarks, dr, dc),
+    )
 
 
 #: Named detection chains (module docstring).
