@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -71,7 +72,13 @@ def write_figure(path: Path, tiles, params, region_filter, n: int) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", default=str(REPO.parent / "shared" / "data" / "sdvd"))
+    ap.add_argument(
+        "--data",
+        default=str(
+            Path(os.environ.get("UNDERSEA_SHARED_DATA", REPO.parent / "shared" / "data")) / "sdvd"
+        ),
+        help="SDVD folder (default: $UNDERSEA_SHARED_DATA/sdvd, else ../shared/data/sdvd)",
+    )
     ap.add_argument("--preset", default="sdvd", choices=(*PRESETS, "auto"))
     ap.add_argument("--filter", default="sdvd", choices=tuple(REGION_FILTERS))
     ap.add_argument(

@@ -46,8 +46,10 @@ __all__ = [
     "DETECTORS",
     "FEATURES",
     "SDVD_STAGE2",
+    "Candidates",
     "DetectorConfig",
     "RegionClassifier",
+    "candidate_regions",
     "detect",
     "fit_region_classifier",
     "get_detector",
@@ -113,7 +115,9 @@ def region_features(
 @dataclass(frozen=True)
 class RegionClassifier:
     """Logistic second stage: ``p = 1 / (1 + exp(−(w · (x − mean) / scale + bias)))`` on
-    the :data:`FEATURES` ``x`` of a region; regions with ``p >= threshold`` are kept."""
+    the :data:`FEATURES` ``x`` of a region; regions with ``p >= threshold`` are kept.
+    (A study may fit it on more columns; :func:`detect` needs the eight of
+    :data:`FEATURES`.)"""
 
     mean: tuple[float, ...]
     scale: tuple[float, ...]
@@ -122,11 +126,12 @@ class RegionClassifier:
     threshold: float = 0.5
 
     def __post_init__(self) -> None:
-        k = len(FEATURES)
-        for name in ("mean", "scale", "weights"):
+        k = len(self.weights)
+        for name in ("mean", "scale"):
             if len(getattr(self, name)) != k:
                 raise ValueError(
-                    f"RegionClassifier.{name}: need {k} values ({', '.join(FEATURES)})"
+                    f"RegionClassifier.{name}: {len(getattr(self, name))} values, need one "
+                    f"per weight ({k}; the detector's are {', '.join(FEATURES)})"
                 )
         if not all(s > 0 for s in self.scale):
             raise ValueError(f"RegionClassifier.scale={self.scale!r}: every value must be > 0")
@@ -136,6 +141,8 @@ class RegionClassifier:
     def probability(self, features: np.ndarray) -> np.ndarray:
         """``(n,)`` probabilities that each region (row of ``features``) is an object."""
         x = np.asarray(features, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != len(self.weights):
+            raise ValueError(f"features {x.shape}: need (n, {len(self.weights)})")
         z = (x - np.asarray(self.mean)) / np.asarray(self.scale)
         return 1.0 / (1.0 + np.exp(-(z @ np.asarray(self.weights) + self.bias)))
 
@@ -145,14 +152,12 @@ def fit_region_classifier(
 ) -> RegionClassifier:
     """Fit the logistic second stage by L2-penalized maximum likelihood (penalty ``l2`` on
     the weights of the standardized features, not on the bias; L-BFGS from zero, so the
-    fit is deterministic). ``features``: ``(n, 8)`` rows of :func:`region_features`;
-    ``is_object``: ``(n,)`` bool labels."""
+    fit is deterministic). ``features``: ``(n, k)`` rows (the detector's are the
+    ``k = 8`` of :func:`region_features`); ``is_object``: ``(n,)`` bool labels."""
     x = np.asarray(features, dtype=np.float64)
     y = np.asarray(is_object, dtype=np.float64).ravel()
-    if x.ndim != 2 or x.shape[1] != len(FEATURES) or x.shape[0] != y.size:
-        raise ValueError(
-            f"features {x.shape} / is_object {y.shape}: need (n, {len(FEATURES)}) and (n,)"
-        )
+    if x.ndim != 2 or x.shape[1] < 1 or x.shape[0] != y.size:
+        raise ValueError(f"features {x.shape} / is_object {y.shape}: need (n, k) and (n,)")
     if not (0 < y.sum() < y.size):
         raise ValueError("is_object: need both object and non-object regions to fit")
     mean = x.mean(axis=0)
@@ -267,20 +272,40 @@ def _select(
     return tuple(sorted(kept, key=lambda r: r.label))
 
 
-def detect(image: np.ndarray, config: DetectorConfig | str = "sdvd-trusted") -> SegmentationResult:
-    """Run the detection chain on one image; the result's ``regions``/``labels`` are the
-    merged regions, its ``landmarks`` the detections, its ``gray8`` the image the first
-    stage saw (annotations masked), all in the whole image's coordinates."""
+@dataclass(frozen=True, eq=False)
+class Candidates:
+    """Stages 1–4 of :func:`detect` on one image: the candidate regions before the
+    selection, in the coordinates of the image the chain ran on (the data frame with
+    ``frame_padding``, else the whole image).
+
+    first_stage : the first stage's :class:`.methods.SegmentationResult` on ``gray8``.
+    gray8       : (h, w) the image the chain ran on (annotations masked).
+    labels      : (h, w) int32 labels of the merged, not suppressed regions.
+    regions     : those regions.
+    offset_rc   : (row, col) of ``gray8``'s top-left pixel in the whole image.
+    whole       : (H, W) the whole image (annotations masked).
+    """
+
+    first_stage: SegmentationResult
+    gray8: np.ndarray
+    labels: np.ndarray
+    regions: tuple[Region, ...]
+    offset_rc: tuple[int, int]
+    whole: np.ndarray
+
+
+def candidate_regions(image: np.ndarray, config: DetectorConfig | str) -> Candidates:
+    """Stages 1–4 of the detection chain (module docstring) on one image."""
     cfg = get_detector(config) if isinstance(config, str) else config
     if not isinstance(cfg, DetectorConfig):
         raise ValueError(f"config: {type(cfg).__name__} not allowed; need DetectorConfig or a name")
-    t0 = time.perf_counter()
     g = as_gray8(image)
     if cfg.mask_annotations:
         g, _ = mask_annotations(g)
-    rows, cols = data_frame(g) if cfg.frame_padding else (slice(None), slice(None))
-    cropped = g.shape != g[rows, cols].shape
-    gc = np.ascontiguousarray(g[rows, cols]) if cropped else g
+    rows, cols = (
+        data_frame(g) if cfg.frame_padding else (slice(0, g.shape[0]), slice(0, g.shape[1]))
+    )
+    gc = np.ascontiguousarray(g[rows, cols]) if g[rows, cols].shape != g.shape else g
     res = segment(gc, cfg.method, get_preset(cfg.preset, gc.shape))
     labels, regions = res.labels, res.regions
     if cfg.reflect_px and regions:
@@ -299,30 +324,41 @@ def detect(image: np.ndarray, config: DetectorConfig | str = "sdvd-trusted") -> 
             relabel = True
     if cfg.merge_gap_px or relabel:
         regions, labels = merge_fragments(labels, int(cfg.merge_gap_px))
-    landmarks = _select(cfg, gc, labels, regions)
-    if cropped:
-        res, labels, regions, landmarks = _to_whole_tile(
-            res, g, rows, cols, labels, regions, landmarks
-        )
+    return Candidates(res, gc, labels, regions, (rows.start, cols.start), g)
+
+
+def detect(image: np.ndarray, config: DetectorConfig | str = "sdvd-trusted") -> SegmentationResult:
+    """Run the detection chain on one image; the result's ``regions``/``labels`` are the
+    merged regions, its ``landmarks`` the detections, its ``gray8`` the image the first
+    stage saw (annotations masked), all in the whole image's coordinates."""
+    cfg = get_detector(config) if isinstance(config, str) else config
+    t0 = time.perf_counter()
+    c = candidate_regions(image, cfg)
+    res, labels, regions = c.first_stage, c.labels, c.regions
+    landmarks = _select(cfg, c.gray8, labels, regions)
+    if c.gray8.shape != c.whole.shape:
+        res, labels, regions, landmarks = _to_whole_tile(c, landmarks)
     timing = dict(res.timing_s)
     timing["total"] = time.perf_counter() - t0
     return replace(res, regions=regions, labels=labels, landmarks=landmarks, timing_s=timing)
 
 
-def _to_whole_tile(res, g, rows, cols, labels, regions, landmarks):
-    """The chain's outputs from the data frame ``g[rows, cols]`` back to the tile ``g``."""
+def _to_whole_tile(c: Candidates, landmarks: tuple[Region, ...]):
+    """The chain's outputs from the data frame back to the whole image ``c.whole``."""
+    dr, dc = c.offset_rc
+    h, w = c.gray8.shape
 
     def whole(a: np.ndarray) -> np.ndarray:
-        out = np.zeros(g.shape, a.dtype)
-        out[rows, cols] = a
+        out = np.zeros(c.whole.shape, a.dtype)
+        out[dr : dr + h, dc : dc + w] = a
         return out
 
-    dr, dc = rows.start, cols.start
-    res = replace(res, binary=whole(res.binary), mask=whole(res.mask), gray8=g)
+    res = c.first_stage
+    res = replace(res, binary=whole(res.binary), mask=whole(res.mask), gray8=c.whole)
     return (
         res,
-        whole(labels),
-        shift_regions(regions, dr, dc),
+        whole(c.labels),
+        shift_regions(c.regions, dr, dc),
         shift_regions(landmarks, dr, dc),
     )
 

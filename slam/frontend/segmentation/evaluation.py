@@ -43,6 +43,7 @@ __all__ = [
     "MethodEvaluation",
     "evaluate",
     "evaluate_detector",
+    "evaluate_run",
     "load_sdvd",
     "sdvd_frequency",
     "sdvd_group",
@@ -210,6 +211,18 @@ def evaluate(
     return _evaluate(
         tiles, lambda img: segment_filtered(img, method, params, region_filter), method, tol_px
     )
+
+
+def evaluate_run(
+    tiles: Sequence[LabelledTile] | Iterable[LabelledTile],
+    run,
+    name: str,
+    *,
+    tol_px: float = 0.0,
+) -> MethodEvaluation:
+    """Score ``run(image) -> SegmentationResult`` (its landmarks are the detections) on
+    every tile and sum the scores (module docstring); ``name`` labels the result."""
+    return _evaluate(tiles, run, name, tol_px)
 
 
 def evaluate_detector(
