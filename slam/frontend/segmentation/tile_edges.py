@@ -61,7 +61,8 @@ def algorithm2_reflected(
 ) -> tuple[tuple[Region, ...], np.ndarray]:
     """Algorithm 2 (:func:`.regions.morphology_chain`, :func:`.regions.extract_regions`)
     on ``binary`` (H, W) extended by ``pad_px`` pixels of reflection (``BORDER_REFLECT_101``:
-    the edge pixel is the mirror line) on every side, cropped back to (H, W). Returns
+    the edge pixel is the mirror line; reflected again where ``pad_px`` exceeds a side)
+    on every side, cropped back to (H, W). Returns
     ``(regions, int32 labels)`` of the cropped mask. ``pad_px = 0`` is Algorithm 2 itself."""
     if int(pad_px) != pad_px or pad_px < 0:
         raise ValueError(f"reflect_px={pad_px!r}: must be an integer >= 0 (pixels)")
@@ -69,8 +70,6 @@ def algorithm2_reflected(
     if b.ndim != 2:
         raise ValueError(f"binary: shape {b.shape} is not 2-D")
     h, w = b.shape
-    if pad_px >= min(h, w):
-        raise ValueError(f"reflect_px={pad_px!r}: must be smaller than the image {h}x{w}")
     p = int(pad_px)
     if p:
         b = cv2.copyMakeBorder(b, p, p, p, p, cv2.BORDER_REFLECT_101)

@@ -118,3 +118,15 @@ def test_shift_regions_moves_centroid_and_box():
     (r,) = shift_regions(regions, 10, -3)
     assert r.centroid_rc == pytest.approx((13.0, 2.5)) and r.bbox == (12, 0, 15, 6)
     assert r.area_px == regions[0].area_px
+
+
+def test_reflection_wider_than_a_thin_frame():
+    """A 5-row frame (a tile that is mostly padding) with 16 px of reflection, more than
+    the frame is high: a 3 x 4 blob (12 px < a = 14) cut by the bottom edge is completed
+    by its mirror (rows 2–6, 20 px) and kept; plain Algorithm 2 drops it; the output keeps
+    the frame's shape."""
+    b = np.zeros((5, 40), bool)
+    b[2:5, 10:14] = True
+    regions, labels = algorithm2_reflected(b, 14, 1, 16)
+    assert labels.shape == (5, 40) and len(regions) == 1 and regions[0].bbox[2] == 5
+    assert algorithm2_reflected(b, 14, 1, 0)[0] == ()
