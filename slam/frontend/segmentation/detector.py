@@ -308,7 +308,7 @@ def candidate_regions(image: np.ndarray, config: DetectorConfig | str) -> Candid
     gc = np.ascontiguousarray(g[rows, cols]) if g[rows, cols].shape != g.shape else g
     res = segment(gc, cfg.method, get_preset(cfg.preset, gc.shape))
     labels, regions = res.labels, res.regions
-    if cfg.reflect_px and regions:
+    if cfg.reflect_px and res.binary.any():  # a cut part < a px leaves no region
         p = res.params
         regions, labels = algorithm2_reflected(
             res.binary, p.a_px, p.dilate_iterations, int(cfg.reflect_px)

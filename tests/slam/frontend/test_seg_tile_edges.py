@@ -130,3 +130,16 @@ def test_reflection_wider_than_a_thin_frame():
     regions, labels = algorithm2_reflected(b, 14, 1, 16)
     assert labels.shape == (5, 40) and len(regions) == 1 and regions[0].bbox[2] == 5
     assert algorithm2_reflected(b, 14, 1, 0)[0] == ()
+
+
+def test_detect_with_reflection_keeps_a_small_cut_object():
+    """A flat seabed (level 50) with one bright 3 x 4 blob (12 px < a = 14) cut by the top
+    edge: Algorithm 2 alone leaves no region, so the chain without reflection detects
+    nothing; with ``reflect_px`` the blob, completed by its mirror, is one detection at
+    the top edge."""
+    img = np.full((128, 128), 50, np.uint8)
+    img[0:3, 60:64] = 230
+    cfg = DetectorConfig(classifier=None, max_count=0, merge_gap_px=0)
+    assert detect(img, cfg).landmarks == ()
+    (r,) = detect(img, cfg.with_(reflect_px=16)).landmarks
+    assert r.bbox[0] == 0 and 59 <= r.centroid_rc[1] <= 64
