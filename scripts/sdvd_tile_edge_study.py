@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -47,6 +46,7 @@ from slam.frontend.segmentation.detector import (  # noqa: E402
     region_features,
 )
 from slam.frontend.segmentation.evaluation import (  # noqa: E402
+    default_sdvd_dir,
     evaluate_detector,
     evaluate_run,
     load_sdvd,
@@ -143,13 +143,7 @@ def _row(r: dict) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument(
-        "--data",
-        default=str(
-            Path(os.environ.get("UNDERSEA_SHARED_DATA", REPO.parent / "shared" / "data")) / "sdvd"
-        ),
-        help="SDVD folder (default: $UNDERSEA_SHARED_DATA/sdvd, else ../shared/data/sdvd)",
-    )
+    ap.add_argument("--data", default=str(default_sdvd_dir()), help="SDVD folder")
     ap.add_argument("--variants", default=",".join(VARIANTS))
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -35,7 +34,7 @@ from slam.frontend.segmentation.detector import (  # noqa: E402
     get_detector,
     region_features,
 )
-from slam.frontend.segmentation.evaluation import load_sdvd  # noqa: E402
+from slam.frontend.segmentation.evaluation import default_sdvd_dir, load_sdvd  # noqa: E402
 
 GAPS = (0, 4)
 THRESHOLDS = (0.05, 0.1, 0.15, 0.2, 0.3)
@@ -129,13 +128,7 @@ def choose(tiles, base: DetectorConfig | None = None, features=None):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument(
-        "--data",
-        default=str(
-            Path(os.environ.get("UNDERSEA_SHARED_DATA", REPO.parent / "shared" / "data")) / "sdvd"
-        ),
-        help="SDVD folder (default: $UNDERSEA_SHARED_DATA/sdvd, else ../shared/data/sdvd)",
-    )
+    ap.add_argument("--data", default=str(default_sdvd_dir()), help="SDVD folder")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     data = Path(args.data)

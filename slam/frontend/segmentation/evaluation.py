@@ -22,6 +22,7 @@ fragment-counting figure is kept beside it as ``ppv_fragments``.
 
 from __future__ import annotations
 
+import os
 import re
 import time
 import zlib
@@ -41,6 +42,7 @@ from .scoring import DetectionScore, score_result, sum_scores
 __all__ = [
     "LabelledTile",
     "MethodEvaluation",
+    "default_sdvd_dir",
     "evaluate",
     "evaluate_detector",
     "evaluate_run",
@@ -116,6 +118,14 @@ class MethodEvaluation:
             "confusion_matrix": self.all.confusion_matrix.tolist(),
             "mean_ms": round(self.mean_ms, 3),
         }
+
+
+def default_sdvd_dir() -> Path:
+    """The SDVD folder: ``$UNDERSEA_SHARED_DATA/sdvd``, else ``../shared/data/sdvd`` beside
+    the clone."""
+    env = os.environ.get("UNDERSEA_SHARED_DATA")
+    root = Path(env) if env else Path(__file__).resolve().parents[3].parent / "shared" / "data"
+    return root / "sdvd"
 
 
 def sdvd_group(name: str, positive: bool) -> str:
