@@ -35,8 +35,11 @@ import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-if str(REPO) not in sys.path:
-    sys.path.insert(0, str(REPO))
+for p in (REPO, REPO / "scripts"):
+    if str(p) not in sys.path:
+        sys.path.insert(0, str(p))
+
+from train_sdvd_stage2 import inside_flags  # noqa: E402
 
 from slam.frontend.segmentation.detector import (  # noqa: E402
     candidate_regions,
@@ -136,20 +139,8 @@ def tile_candidates(tile, cfg, gap: int) -> dict:
     regs = tuple(r for r in c.regions if r.area_px <= cfg.max_area_px)
     f8 = region_features(c.gray8, c.labels, regs)
     fl = local_features(c.gray8, c.labels, regs)
-    h, w = tile.mask.shape
+    inside = inside_flags(tile.mask, regs, c.offset_rc)
     dr, dc = c.offset_rc
-    inside = np.array(
-        [
-            bool(
-                tile.mask[
-                    min(max(round(r.centroid_rc[0] + dr), 0), h - 1),
-                    min(max(round(r.centroid_rc[1] + dc), 0), w - 1),
-                ]
-            )
-            for r in regs
-        ],
-        dtype=bool,
-    )
     res = replace(c.first_stage, gray8=c.whole, mask=np.zeros(c.whole.shape, bool))
     return {"res": res, "regs": shift_regions(regs, dr, dc), "f8": f8, "fl": fl, "inside": inside}
 

@@ -57,22 +57,27 @@ def tune_regions(tiles, gap: int, base: DetectorConfig | None = None, features=N
     out = []
     for t in tiles:
         c, regs, feats = candidates_with_features(t.image, cfg, features)
-        h, w = t.mask.shape
-        dr, dc = c.offset_rc
-        inside = np.array(
-            [
-                bool(
-                    t.mask[
-                        min(max(round(r.centroid_rc[0] + dr), 0), h - 1),
-                        min(max(round(r.centroid_rc[1] + dc), 0), w - 1),
-                    ]
-                )
-                for r in regs
-            ],
-            dtype=bool,
-        )
-        out.append((t.positive, feats, inside))
+        out.append((t.positive, feats, inside_flags(t.mask, regs, c.offset_rc)))
     return out
+
+
+def inside_flags(mask, regions, offset_rc=(0, 0)) -> np.ndarray:
+    """``(n,)`` bool: the centroid pixel of each region (shifted by ``offset_rc`` into the
+    mask's coordinates, clipped to it) lies inside the truth ``mask``."""
+    h, w = mask.shape
+    dr, dc = offset_rc
+    return np.array(
+        [
+            bool(
+                mask[
+                    min(max(round(r.centroid_rc[0] + dr), 0), h - 1),
+                    min(max(round(r.centroid_rc[1] + dc), 0), w - 1),
+                ]
+            )
+            for r in regions
+        ],
+        dtype=bool,
+    )
 
 
 def score(rows, clf, k: int) -> dict:
