@@ -36,6 +36,7 @@ from slam.frontend.segmentation import (  # noqa: E402
 )
 from slam.frontend.segmentation.detector import DETECTORS, get_detector  # noqa: E402
 from slam.frontend.segmentation.evaluation import (  # noqa: E402
+    default_sdvd_dir,
     evaluate,
     evaluate_detector,
     load_sdvd,
@@ -71,7 +72,7 @@ def write_figure(path: Path, tiles, params, region_filter, n: int) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", default=str(REPO.parent / "shared" / "data" / "sdvd"))
+    ap.add_argument("--data", default=str(default_sdvd_dir()), help="SDVD folder")
     ap.add_argument("--preset", default="sdvd", choices=(*PRESETS, "auto"))
     ap.add_argument("--filter", default="sdvd", choices=tuple(REGION_FILTERS))
     ap.add_argument(
@@ -96,7 +97,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     data = Path(args.data)
     if not data.is_dir():
-        print(f"eval_sdvd: {str(data)!r} not found (../shared/data/sdvd)", file=sys.stderr)
+        print(
+            f"eval_sdvd: {str(data)!r} not found (give --data or set $UNDERSEA_SHARED_DATA)",
+            file=sys.stderr,
+        )
         return 2
     methods = [m for m in args.methods.split(",") if m]
     for m in methods:

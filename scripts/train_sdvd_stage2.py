@@ -28,41 +28,56 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from slam.frontend.segmentation.detector import (  # noqa: E402
-    detect,
+    DetectorConfig,
+    candidate_regions,
     fit_region_classifier,
     get_detector,
     region_features,
 )
-from slam.frontend.segmentation.evaluation import load_sdvd  # noqa: E402
+from slam.frontend.segmentation.evaluation import default_sdvd_dir, load_sdvd  # noqa: E402
 
 GAPS = (0, 4)
 THRESHOLDS = (0.05, 0.1, 0.15, 0.2, 0.3)
 COUNTS = (1, 2)
 
 
-def tune_regions(tiles, gap: int):
-    """Per tune tile: (positive, features (n, 8), inside-mask flags (n,))."""
-    cfg = get_detector("sdvd-trusted").with_(merge_gap_px=gap, classifier=None, max_count=0)
+def candidates_with_features(image, cfg: DetectorConfig, features=None):
+    """Stages 1–4 of ``cfg`` and its area filter on one image: ``(candidates, kept
+    regions, their feature rows)``; ``features(gray8, labels, regions)`` defaults to the
+    detector's :func:`region_features`."""
+    c = candidate_regions(image, cfg)
+    regs = tuple(r for r in c.regions if r.area_px <= cfg.max_area_px)
+    return c, regs, (features or region_features)(c.gray8, c.labels, regs)
+
+
+def tune_regions(tiles, gap: int, base: DetectorConfig | None = None, features=None):
+    """Per tune tile: (positive, features (n, k), inside-mask flags (n,))."""
+    base = get_detector("sdvd-trusted") if base is None else base
+    cfg = base.with_(merge_gap_px=gap, classifier=None, max_count=0)
     out = []
     for t in tiles:
-        res = detect(t.image, cfg)
-        regs = res.landmarks
-        feats = region_features(res.gray8, res.labels, regs)
-        h, w = t.mask.shape
-        inside = np.array(
-            [
-                bool(
-                    t.mask[
-                        min(max(round(r.centroid_rc[0]), 0), h - 1),
-                        min(max(round(r.centroid_rc[1]), 0), w - 1),
-                    ]
-                )
-                for r in regs
-            ],
-            dtype=bool,
-        )
-        out.append((t.positive, feats, inside))
+        c, regs, feats = candidates_with_features(t.image, cfg, features)
+        out.append((t.positive, feats, inside_flags(t.mask, regs, c.offset_rc)))
     return out
+
+
+def inside_flags(mask, regions, offset_rc=(0, 0)) -> np.ndarray:
+    """``(n,)`` bool: the centroid pixel of each region (shifted by ``offset_rc`` into the
+    mask's coordinates, clipped to it) lies inside the truth ``mask``."""
+    h, w = mask.shape
+    dr, dc = offset_rc
+    return np.array(
+        [
+            bool(
+                mask[
+                    min(max(round(r.centroid_rc[0] + dr), 0), h - 1),
+                    min(max(round(r.centroid_rc[1] + dc), 0), w - 1),
+                ]
+            )
+            for r in regions
+        ],
+        dtype=bool,
+    )
 
 
 def score(rows, clf, k: int) -> dict:
@@ -86,9 +101,39 @@ def score(rows, clf, k: int) -> dict:
     }
 
 
+def first_stage_ceiling(rows) -> float:
+    """Fraction of positive tiles with any candidate centroid inside the effigy."""
+    pos = [bool(inside.any()) for positive, _f, inside in rows if positive]
+    return sum(pos) / max(len(pos), 1)
+
+
+def choose(tiles, base: DetectorConfig | None = None, features=None):
+    """The grid on the tune ``tiles`` and the rule (module docstring): ``(grid, best)``,
+    ``best = (entry, classifier)`` or None when no setting meets the limits."""
+    grid = []
+    best = None
+    for gap in GAPS:
+        rows = tune_regions(tiles, gap, base, features)
+        x = np.vstack([f for _, f, _ in rows if len(f)])
+        y = np.concatenate([i for _, f, i in rows if len(f)])
+        fitted = fit_region_classifier(x, y)
+        for tau in THRESHOLDS:
+            clf = fit_region_classifier(x, y, threshold=tau) if tau != fitted.threshold else fitted
+            for k in COUNTS:
+                s = score(rows, clf, k)
+                entry = {"merge_gap_px": gap, "threshold": tau, "max_count": k, **s}
+                entry["first_stage_ceiling"] = first_stage_ceiling(rows)
+                grid.append(entry)
+                ok = s["ppv"] >= 0.5 and s["detections_per_negative_tile"] <= 0.7
+                key = (s["hit_rate"], -s["detections_per_negative_tile"], s["ppv"])
+                if ok and (best is None or key > best[0]):
+                    best = (key, entry, clf)
+    return grid, None if best is None else best[1:]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", default=str(REPO.parent / "shared" / "data" / "sdvd"))
+    ap.add_argument("--data", default=str(default_sdvd_dir()), help="SDVD folder")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     data = Path(args.data)
@@ -96,26 +141,10 @@ def main(argv=None) -> int:
         print(f"train_sdvd_stage2: {str(data)!r} not found", file=sys.stderr)
         return 2
     tiles = [t for t in load_sdvd(data) if t.split == "tune"]
-    grid = []
-    best = None
-    for gap in GAPS:
-        rows = tune_regions(tiles, gap)
-        x = np.vstack([f for _, f, _ in rows if len(f)])
-        y = np.concatenate([i for _, f, i in rows if len(f)])
-        base = fit_region_classifier(x, y)
-        for tau in THRESHOLDS:
-            clf = fit_region_classifier(x, y, threshold=tau) if tau != base.threshold else base
-            for k in COUNTS:
-                s = score(rows, clf, k)
-                entry = {"merge_gap_px": gap, "threshold": tau, "max_count": k, **s}
-                grid.append(entry)
-                ok = s["ppv"] >= 0.5 and s["detections_per_negative_tile"] <= 0.7
-                key = (s["hit_rate"], -s["detections_per_negative_tile"], s["ppv"])
-                if ok and (best is None or key > best[0]):
-                    best = (key, entry, clf)
+    grid, best = choose(tiles)
     out = {"n_tune_tiles": len(tiles), "grid": grid}
     if best is not None:
-        _, entry, clf = best
+        entry, clf = best
         out["chosen"] = entry
         out["classifier"] = {
             "mean": clf.mean,
@@ -137,7 +166,7 @@ def main(argv=None) -> int:
     if best is None:
         print("no setting meets PPV >= 0.5 and det/neg <= 0.7 on the tune half")
         return 1
-    _, entry, clf = best
+    entry, clf = best
     print(f"chosen: {entry}")
     print(
         "RegionClassifier(\n"

@@ -3,8 +3,12 @@ artefact suppression, fragment merging and an optional learned second stage.
 
 Stages of :func:`detect` (each switchable in :class:`DetectorConfig`):
 
-1. burned-in annotations masked (:func:`.artefacts.mask_annotations`);
-2. first stage: a threshold method (improved Otsu by default) and Algorithm 2;
+1. burned-in annotations masked (:func:`.artefacts.mask_annotations`); optionally the
+   tile reduced to its data frame (``frame_padding``: zero padding at its edges is
+   outside the image, :func:`.tile_edges.data_frame`);
+2. first stage: a threshold method (improved Otsu by default) and Algorithm 2
+   (optionally on the binary image reflected across the tile edges, ``reflect_px``:
+   :func:`.tile_edges.algorithm2_reflected`);
 3. regions touching a no-echo area dropped (:func:`.artefacts.no_echo_mask`);
 4. fragments within ``merge_gap_px`` merged into one region (:mod:`.fragments`);
 5. geometry (``max_area_px``), local contrast (``min_contrast_db``) and the second stage
@@ -36,13 +40,16 @@ from .image import as_gray8
 from .methods import METHODS, SegmentationResult, segment
 from .presets import get_preset
 from .regions import Region
+from .tile_edges import algorithm2_reflected, data_frame, shift_regions
 
 __all__ = [
     "DETECTORS",
     "FEATURES",
     "SDVD_STAGE2",
+    "Candidates",
     "DetectorConfig",
     "RegionClassifier",
+    "candidate_regions",
     "detect",
     "fit_region_classifier",
     "get_detector",
@@ -108,7 +115,9 @@ def region_features(
 @dataclass(frozen=True)
 class RegionClassifier:
     """Logistic second stage: ``p = 1 / (1 + exp(−(w · (x − mean) / scale + bias)))`` on
-    the :data:`FEATURES` ``x`` of a region; regions with ``p >= threshold`` are kept."""
+    the :data:`FEATURES` ``x`` of a region; regions with ``p >= threshold`` are kept.
+    (A study may fit it on more columns; :func:`detect` needs the eight of
+    :data:`FEATURES`.)"""
 
     mean: tuple[float, ...]
     scale: tuple[float, ...]
@@ -117,11 +126,12 @@ class RegionClassifier:
     threshold: float = 0.5
 
     def __post_init__(self) -> None:
-        k = len(FEATURES)
-        for name in ("mean", "scale", "weights"):
+        k = len(self.weights)
+        for name in ("mean", "scale"):
             if len(getattr(self, name)) != k:
                 raise ValueError(
-                    f"RegionClassifier.{name}: need {k} values ({', '.join(FEATURES)})"
+                    f"RegionClassifier.{name}: {len(getattr(self, name))} values, need one "
+                    f"per weight ({k}; the detector's are {', '.join(FEATURES)})"
                 )
         if not all(s > 0 for s in self.scale):
             raise ValueError(f"RegionClassifier.scale={self.scale!r}: every value must be > 0")
@@ -131,6 +141,8 @@ class RegionClassifier:
     def probability(self, features: np.ndarray) -> np.ndarray:
         """``(n,)`` probabilities that each region (row of ``features``) is an object."""
         x = np.asarray(features, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != len(self.weights):
+            raise ValueError(f"features {x.shape}: need (n, {len(self.weights)})")
         z = (x - np.asarray(self.mean)) / np.asarray(self.scale)
         return 1.0 / (1.0 + np.exp(-(z @ np.asarray(self.weights) + self.bias)))
 
@@ -140,14 +152,12 @@ def fit_region_classifier(
 ) -> RegionClassifier:
     """Fit the logistic second stage by L2-penalized maximum likelihood (penalty ``l2`` on
     the weights of the standardized features, not on the bias; L-BFGS from zero, so the
-    fit is deterministic). ``features``: ``(n, 8)`` rows of :func:`region_features`;
-    ``is_object``: ``(n,)`` bool labels."""
+    fit is deterministic). ``features``: ``(n, k)`` rows (the detector's are the
+    ``k = 8`` of :func:`region_features`); ``is_object``: ``(n,)`` bool labels."""
     x = np.asarray(features, dtype=np.float64)
     y = np.asarray(is_object, dtype=np.float64).ravel()
-    if x.ndim != 2 or x.shape[1] != len(FEATURES) or x.shape[0] != y.size:
-        raise ValueError(
-            f"features {x.shape} / is_object {y.shape}: need (n, {len(FEATURES)}) and (n,)"
-        )
+    if x.ndim != 2 or x.shape[1] < 1 or x.shape[0] != y.size:
+        raise ValueError(f"features {x.shape} / is_object {y.shape}: need (n, k) and (n,)")
     if not (0 < y.sum() < y.size):
         raise ValueError("is_object: need both object and non-object regions to fit")
     mean = x.mean(axis=0)
@@ -197,6 +207,13 @@ class DetectorConfig:
     classifier       : learned second stage, or None.
     max_count        : keep at most this many regions per image (0 = no limit), highest
                        probability first (largest first without a classifier).
+    frame_padding    : run the chain inside the tile's data frame (rows/columns of zero
+                       padding at its edges are outside the image, so an object cut by
+                       them is cut by the tile edge and not dropped as touching a no-echo
+                       area); results are in the whole tile's coordinates.
+    reflect_px       : run Algorithm 2 on the binary image extended by this many pixels
+                       of reflection across the tile edges (0 = off): a cut object keeps
+                       its parts smaller than ``a`` and its holes open to the edge fill.
     """
 
     method: str = "improved-otsu"
@@ -208,6 +225,8 @@ class DetectorConfig:
     min_contrast_db: float = -math.inf
     classifier: RegionClassifier | None = SDVD_STAGE2
     max_count: int = 2
+    frame_padding: bool = False
+    reflect_px: int = 0
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -222,6 +241,10 @@ class DetectorConfig:
             raise ValueError("DetectorConfig.min_contrast_db=nan: need a number (dB) or -inf")
         if int(self.max_count) != self.max_count or self.max_count < 0:
             raise ValueError(f"DetectorConfig.max_count={self.max_count!r}: must be >= 0")
+        if int(self.reflect_px) != self.reflect_px or self.reflect_px < 0:
+            raise ValueError(
+                f"DetectorConfig.reflect_px={self.reflect_px!r}: must be an integer >= 0 (pixels)"
+            )
 
     def with_(self, **changes) -> DetectorConfig:
         return replace(self, **changes)
@@ -249,33 +272,95 @@ def _select(
     return tuple(sorted(kept, key=lambda r: r.label))
 
 
-def detect(image: np.ndarray, config: DetectorConfig | str = "sdvd-trusted") -> SegmentationResult:
-    """Run the detection chain on one image; the result's ``regions``/``labels`` are the
-    merged regions, its ``landmarks`` the detections, its ``gray8`` the image the first
-    stage saw (annotations masked)."""
+@dataclass(frozen=True, eq=False)
+class Candidates:
+    """Stages 1–4 of :func:`detect` on one image: the candidate regions before the
+    selection, in the coordinates of the image the chain ran on (the data frame with
+    ``frame_padding``, else the whole image).
+
+    first_stage : the first stage's :class:`.methods.SegmentationResult` on ``gray8``.
+    gray8       : (h, w) the image the chain ran on (annotations masked).
+    labels      : (h, w) int32 labels of the merged, not suppressed regions.
+    regions     : those regions.
+    offset_rc   : (row, col) of ``gray8``'s top-left pixel in the whole image.
+    whole       : (H, W) the whole image (annotations masked).
+    """
+
+    first_stage: SegmentationResult
+    gray8: np.ndarray
+    labels: np.ndarray
+    regions: tuple[Region, ...]
+    offset_rc: tuple[int, int]
+    whole: np.ndarray
+
+
+def candidate_regions(image: np.ndarray, config: DetectorConfig | str) -> Candidates:
+    """Stages 1–4 of the detection chain (module docstring) on one image."""
     cfg = get_detector(config) if isinstance(config, str) else config
     if not isinstance(cfg, DetectorConfig):
         raise ValueError(f"config: {type(cfg).__name__} not allowed; need DetectorConfig or a name")
-    t0 = time.perf_counter()
     g = as_gray8(image)
     if cfg.mask_annotations:
         g, _ = mask_annotations(g)
-    res = segment(g, cfg.method, get_preset(cfg.preset, g.shape))
-    labels = res.labels
-    if cfg.suppress_no_echo and res.regions:
-        ne = no_echo_mask(g)
+    rows, cols = (
+        data_frame(g) if cfg.frame_padding else (slice(0, g.shape[0]), slice(0, g.shape[1]))
+    )
+    gc = np.ascontiguousarray(g[rows, cols]) if g[rows, cols].shape != g.shape else g
+    res = segment(gc, cfg.method, get_preset(cfg.preset, gc.shape))
+    labels, regions = res.labels, res.regions
+    if cfg.reflect_px and res.binary.any():  # a cut part < a px leaves no region
+        p = res.params
+        regions, labels = algorithm2_reflected(
+            res.binary, p.a_px, p.dilate_iterations, int(cfg.reflect_px)
+        )
+        res = replace(res, mask=labels > 0)
+    relabel = False
+    if cfg.suppress_no_echo and regions:
+        ne = no_echo_mask(gc)
         if ne.any():
             bad = np.zeros(int(labels.max()) + 1, bool)
             bad[np.unique(labels[ne])] = True
             labels = np.where(bad[labels], 0, labels).astype(np.int32)
-    if cfg.merge_gap_px == 0 and labels is res.labels:
-        regions = res.regions  # nothing merged, nothing suppressed: the first stage's own
-    else:
+            relabel = True
+    if cfg.merge_gap_px or relabel:
         regions, labels = merge_fragments(labels, int(cfg.merge_gap_px))
-    landmarks = _select(cfg, g, labels, regions)
+    return Candidates(res, gc, labels, regions, (rows.start, cols.start), g)
+
+
+def detect(image: np.ndarray, config: DetectorConfig | str = "sdvd-trusted") -> SegmentationResult:
+    """Run the detection chain on one image; the result's ``regions``/``labels`` are the
+    merged regions, its ``landmarks`` the detections, its ``gray8`` the image the first
+    stage saw (annotations masked), all in the whole image's coordinates."""
+    cfg = get_detector(config) if isinstance(config, str) else config
+    t0 = time.perf_counter()
+    c = candidate_regions(image, cfg)
+    res, labels, regions = c.first_stage, c.labels, c.regions
+    landmarks = _select(cfg, c.gray8, labels, regions)
+    if c.gray8.shape != c.whole.shape:
+        res, labels, regions, landmarks = _to_whole_tile(c, landmarks)
     timing = dict(res.timing_s)
     timing["total"] = time.perf_counter() - t0
     return replace(res, regions=regions, labels=labels, landmarks=landmarks, timing_s=timing)
+
+
+def _to_whole_tile(c: Candidates, landmarks: tuple[Region, ...]):
+    """The chain's outputs from the data frame back to the whole image ``c.whole``."""
+    dr, dc = c.offset_rc
+    h, w = c.gray8.shape
+
+    def whole(a: np.ndarray) -> np.ndarray:
+        out = np.zeros(c.whole.shape, a.dtype)
+        out[dr : dr + h, dc : dc + w] = a
+        return out
+
+    res = c.first_stage
+    res = replace(res, binary=whole(res.binary), mask=whole(res.mask), gray8=c.whole)
+    return (
+        res,
+        whole(c.labels),
+        shift_regions(c.regions, dr, dc),
+        shift_regions(landmarks, dr, dc),
+    )
 
 
 #: Named detection chains (module docstring).

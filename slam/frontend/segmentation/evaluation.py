@@ -22,6 +22,7 @@ fragment-counting figure is kept beside it as ``ppv_fragments``.
 
 from __future__ import annotations
 
+import os
 import re
 import time
 import zlib
@@ -41,8 +42,10 @@ from .scoring import DetectionScore, score_result, sum_scores
 __all__ = [
     "LabelledTile",
     "MethodEvaluation",
+    "default_sdvd_dir",
     "evaluate",
     "evaluate_detector",
+    "evaluate_run",
     "load_sdvd",
     "sdvd_frequency",
     "sdvd_group",
@@ -115,6 +118,14 @@ class MethodEvaluation:
             "confusion_matrix": self.all.confusion_matrix.tolist(),
             "mean_ms": round(self.mean_ms, 3),
         }
+
+
+def default_sdvd_dir() -> Path:
+    """The SDVD folder: ``$UNDERSEA_SHARED_DATA/sdvd``, else ``../shared/data/sdvd`` beside
+    the clone."""
+    env = os.environ.get("UNDERSEA_SHARED_DATA")
+    root = Path(env) if env else Path(__file__).resolve().parents[3].parent / "shared" / "data"
+    return root / "sdvd"
 
 
 def sdvd_group(name: str, positive: bool) -> str:
@@ -210,6 +221,18 @@ def evaluate(
     return _evaluate(
         tiles, lambda img: segment_filtered(img, method, params, region_filter), method, tol_px
     )
+
+
+def evaluate_run(
+    tiles: Sequence[LabelledTile] | Iterable[LabelledTile],
+    run,
+    name: str,
+    *,
+    tol_px: float = 0.0,
+) -> MethodEvaluation:
+    """Score ``run(image) -> SegmentationResult`` (its landmarks are the detections) on
+    every tile and sum the scores (module docstring); ``name`` labels the result."""
+    return _evaluate(tiles, run, name, tol_px)
 
 
 def evaluate_detector(
