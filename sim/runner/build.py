@@ -124,7 +124,10 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
     ``max_extent_m`` dropped as seabed patches, the first-return edge rules, objects
     without a shadow dropped): one front end for a real recording and for the calibrated
     presets' textured images. ``frontend.max_extent_m`` (m) replaces the profile's
-    extent rule (a scenario with objects longer than 6 m keeps them).
+    extent rule (a scenario with objects longer than 6 m keeps them);
+    ``frontend.require_shadow`` the profile's shadow rule (objects and each of their
+    regions need a shadow: slam.frontend.sidescan_windows; the textured seabed of a
+    calibrated preset, docs/sonar_realism.md).
 
     Start covariance: a run starts SLAM and the dead reckoner at the true start pose, and
     the dead reckoner's covariance, handed on in the matched odometry Q, carries the
@@ -151,6 +154,8 @@ def pipeline_config(v: VehicleSpec) -> PipelineConfig:
         cfg = replace(with_real_sidescan_rules(cfg), min_area_m2=fe.min_area_m2)
     if fe.max_extent_m is not None:
         cfg = replace(cfg, max_extent_m=fe.max_extent_m)
+    if fe.require_shadow is not None:
+        cfg = replace(cfg, require_shadow=fe.require_shadow)
     return cfg
 
 

@@ -209,6 +209,7 @@ class FrontendSpec:
     min_area_m2: float = 0.15
     profile: str = "simulated"
     max_extent_m: float | None = None  # None: the profile's (inf, or REAL_SIDESCAN's 6 m)
+    require_shadow: bool | None = None  # None: the profile's (False, or REAL_SIDESCAN's True)
 
 
 #: [frontend] profile: "simulated" = the pipeline's defaults (MIRA normalization, no
@@ -494,7 +495,16 @@ def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:
     _check_keys(
         d,
         path,
-        ("method", "preset", "window_pings", "hop_pings", "min_area_m2", "profile", "max_extent_m"),
+        (
+            "method",
+            "preset",
+            "window_pings",
+            "hop_pings",
+            "min_area_m2",
+            "profile",
+            "max_extent_m",
+            "require_shadow",
+        ),
     )
     fe = FrontendSpec(
         method=_str(d.get("method", base.method), f"{path}.method", FRONTEND_METHODS),
@@ -509,6 +519,11 @@ def _parse_frontend(d, path, base: FrontendSpec) -> FrontendSpec:
             base.max_extent_m
             if d.get("max_extent_m") is None
             else _num(d["max_extent_m"], f"{path}.max_extent_m", 0.0, lo_open=True)
+        ),
+        require_shadow=(
+            base.require_shadow
+            if d.get("require_shadow") is None
+            else _bool(d["require_shadow"], f"{path}.require_shadow")
         ),
     )
     if fe.hop_pings > fe.window_pings:

@@ -329,6 +329,8 @@ class SidescanProcessor:
                 continue
             rows_l, cols = np.divmod(idx, W2)
             prof = row_profile(rows_l, cols, port, S, rel_db, bin_w, self.shadow_config)
+            if self.require_shadow and not self._casts_shadow(prof[3]):
+                continue  # bright seabed texture: no part of an object standing proud
             cand.append(
                 Part(
                     bool(port),
@@ -342,6 +344,15 @@ class SidescanProcessor:
                 )
             )
         return cand
+
+    def _casts_shadow(self, sh0: np.ndarray) -> bool:
+        """True when at least ``shadow_config.part_shadow_rows`` of a region's rows (its
+        profile's shadow starts ``sh0``, -1 = none) have a shadow behind them. With
+        ``require_shadow`` a region failing it is no part of any object: on a textured
+        seabed, bright texture patches lie closer than ``merge_radius`` to each other and
+        to real objects, and single linkage would chain them into one seabed-sized
+        "object" (or pull a real one's centre metres off)."""
+        return bool(np.mean(sh0 >= 0) >= self.shadow_config.part_shadow_rows)
 
     def _merge(self, cand: list[Part], rate: float) -> list[list[Part]]:
         """Single linkage of parts on one side whose footprints (along-track x ground

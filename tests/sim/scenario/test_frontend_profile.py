@@ -57,3 +57,15 @@ def test_max_extent_overrides_the_profile_and_is_validated():
     d["frontend"]["max_extent_m"] = -1.0
     with pytest.raises(ScenarioError, match=r"frontend\.max_extent_m"):
         parse_scenario(d)
+
+
+def test_require_shadow_overrides_the_profile_and_is_validated():
+    d = load_scenario_dict("dense-loop")
+    assert pipeline_config(parse_scenario(d).vehicles[0]).require_shadow is False
+    d.setdefault("frontend", {})["require_shadow"] = True
+    assert pipeline_config(parse_scenario(d).vehicles[0]).require_shadow is True
+    d["frontend"].update(profile="real-sidescan", require_shadow=False)
+    assert pipeline_config(parse_scenario(d).vehicles[0]).require_shadow is False
+    d["frontend"]["require_shadow"] = "yes"
+    with pytest.raises(ScenarioError, match=r"frontend\.require_shadow"):
+        parse_scenario(d)
