@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim.sonar.echo import _splat_energy
-from sim.sonar.echo_kernels import label_cells
+from sim.sonar.echo_image import label_cells
 
 
 @settings(max_examples=50, deadline=None)
