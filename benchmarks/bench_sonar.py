@@ -20,8 +20,10 @@ in turn with this code's at each pose in this run; prints this code's speed-up o
 from __future__ import annotations
 
 import argparse
+import cProfile
 import json
 import os
+import pstats
 import sys
 import time
 
@@ -107,6 +109,72 @@ def ping_vs_cast(sss, sc, mover, n: int) -> dict:
         "sss_rays_per_ping_cast": int(dirs.shape[0]),
         "sss_ping_over_cast": round(ping / cast, 2),
         "sss_cast_over_bare_embreex": round(cast / bare, 2),
+    }
+
+
+#: the ping's stages by the sim/sonar module a function lives in (numpy and library
+#: functions are charged to the sim/sonar function that called them)
+STAGES = {
+    "cast (Embree, moving-body test, hit gather)": ("rays.py", "ray_cones.py"),
+    "echo formation (compiled passes + numpy glue)": (
+        "echo.py",
+        "echo_kernels.py",
+        "echo_image.py",
+    ),
+    "speckle, noise, TVG, log compression": (
+        "acoustics.py",
+        "chain.py",
+        "speckle.py",
+        "receiver.py",
+    ),
+    "fan rotation, altitude, ping record": ("sidescan.py", "mount.py", "waterfall.py"),
+}
+
+
+def _owner(func, stats, seen=()) -> tuple:
+    """The sim/sonar function charged with ``func``'s own time: itself, else (following
+    the caller that spent most time in it) its nearest sim/sonar caller."""
+    if "sim/sonar/" in func[0].replace(os.sep, "/") or func in seen:
+        return func
+    callers = stats[func][4]
+    if not callers:
+        return func
+    top = max(callers, key=lambda c: callers[c][3])
+    return _owner(top, stats, (*seen, func))
+
+
+def ping_profile(sss, sc, mover, n: int, top: int = 12) -> dict:
+    """cProfile (process CPU time) of ``n`` SSS pings: ms per ping by stage
+    (:data:`STAGES`) and of the ``top`` sim/sonar functions by own time (numpy calls
+    charged to their caller); profiling overhead inflates every figure alike."""
+    d = sc.data
+    rng = np.random.default_rng(0)
+    prof = cProfile.Profile(time.process_time)
+    for k in range(n + 1):
+        mover(k)
+        if k:
+            prof.enable()
+        sss.ping(d, rng)
+        prof.disable()
+    stats = pstats.Stats(prof).stats
+    own: dict[tuple, float] = {}
+    for func, (_, _, tt, _, _) in stats.items():
+        key = _owner(func, stats)
+        own[key] = own.get(key, 0.0) + tt
+    total = sum(own.values())
+    stage = {name: 0.0 for name in STAGES}
+    stage["other (bench loop, Python)"] = 0.0
+    for (file, _, _), t in own.items():
+        base = os.path.basename(file)
+        name = next((k for k, v in STAGES.items() if base in v and "sim" in file), None)
+        stage[name or "other (bench loop, Python)"] += t
+    funcs = sorted(own.items(), key=lambda kv: -kv[1])[:top]
+    return {
+        "sss_profile_ms_per_ping_total": round(1e3 * total / n, 3),
+        "sss_profile_ms_per_ping_by_stage": {k: round(1e3 * v / n, 3) for k, v in stage.items()},
+        "sss_profile_ms_per_ping_top": {
+            f"{os.path.basename(f)}:{name}": round(1e3 * t / n, 3) for (f, _, name), t in funcs
+        },
     }
 
 
@@ -212,6 +280,21 @@ GOALS = {
 }
 
 
+def print_profile(out: dict) -> None:
+    """The SSS ping's cProfile breakdown (:func:`ping_profile`)."""
+    if "sss_profile_ms_per_ping_total" not in out:
+        return
+    print(
+        f"  SSS ping profile (cProfile, process CPU, overhead included):"
+        f" {out['sss_profile_ms_per_ping_total']:.3f} ms/ping"
+    )
+    for name, ms in out["sss_profile_ms_per_ping_by_stage"].items():
+        print(f"    {name:52s} {ms:7.3f} ms")
+    print("    largest functions (own time, numpy charged to the caller):")
+    for name, ms in out["sss_profile_ms_per_ping_top"].items():
+        print(f"      {name:50s} {ms:7.3f} ms")
+
+
 def print_goals(out: dict) -> None:
     """Each issue-16 ratio beside its goal, with the references measured in this run."""
     print(f"issue 16 ratios (process CPU, load average {out.get('load_average_1min', '?')}):")
@@ -227,6 +310,7 @@ def print_goals(out: dict) -> None:
             f"  {what:42s} {a:7.3f} / {b:7.3f} ms = {v:5.2f}x   goal {cmp} {goal}x"
             f"   {'met' if ok else 'MISSED'}"
         )
+    print_profile(out)
     for label in ("pre", "main"):
         if f"compare_fls_speedup_over_{label}" not in out:
             continue
@@ -369,6 +453,7 @@ def main(argv: list[str] | None = None) -> int:
         sss_cfg, m, d, sc.sites["sss"], sc.geom_object_id, sc.geom_reflectivity, sc.water
     )
     out.update(ping_vs_cast(sss, sc, mover, args.pings))
+    out.update(ping_profile(sss, sc, mover, max(20, args.pings // 2)))
     out.update(fls_echo_share(fls_cfg, sc, mover, max(3, args.frames // 2)))
     roots = {k: v for k, v in (("pre", args.pre), ("main", args.main)) if v}
     if roots:
@@ -404,7 +489,8 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(out))
     else:
         for k, v in out.items():
-            print(f"{k:>28}: {v}")
+            if not k.startswith("sss_profile_ms_per_ping_"):
+                print(f"{k:>28}: {v}")
         print_goals(out)
     return 0
 

@@ -19,40 +19,35 @@ from sim.sonar.echo_kernels import F_CENTRE, F_EBG, F_END, F_ENERGY, F_START
 
 
 @numba.njit(cache=True, error_model="numpy")
-def splat_boxes(rows, a, b, e, n_rows, n_bins):
-    """Energies ``e`` (N,) spread uniformly over fractional bin spans [a, b) of row
-    ``rows`` (N,) int64; returns (n_rows, n_bins) float64, clipped at 0.
+def _box_term(row, a, b, e, n_bins):
+    """Second-difference terms of energy ``e`` spread uniformly over the fractional bin
+    span [a, b) of ``row``: slots ba, bb of its clipped ends (row-major, n_bins + 3 per
+    row, one leading slot), density rho = e / (b − a) and the ends' fractions fa, fb into
+    their bins. Scalars only (array arguments would cost reference counting per call)."""
+    aa = min(max(a, 0.0), float(n_bins))
+    ab = min(max(b, 0.0), float(n_bins))
+    ia = np.floor(aa)
+    ib = np.floor(ab)
+    base = row * (n_bins + 3) + 1
+    return base + np.int64(ia), base + np.int64(ib), e / (b - a), aa - ia, ab - ib
 
-    Second-difference array: a kink of slope s at fractional position p = i + f adds
-    s(1 − f) at i + 1 and s·f at i + 2; its prefix sum along the row is the cell value.
-    """
+
+@numba.njit(cache=True, error_model="numpy")
+def _splat_sum(ba, bb, rho, fa, fb, m, n_rows, n_bins):
+    """(n_rows, n_bins) cell values, clipped at 0, of the first ``m`` boxes of
+    :func:`_box_term`: a kink of slope s at fractional position p = i + f adds s(1 − f)
+    at i + 1 and s·f at i + 2 of a second-difference array whose prefix sum along the
+    row is the cell value."""
     stride = n_bins + 3
-    n = rows.size
     d2 = np.zeros(n_rows * stride)
-    ba = np.empty(n, np.int64)
-    bb = np.empty(n, np.int64)
-    rho = np.empty(n)
-    fa = np.empty(n)
-    fb = np.empty(n)
-    for i in range(n):
-        aa = min(max(a[i], 0.0), float(n_bins))
-        ab = min(max(b[i], 0.0), float(n_bins))
-        ia = np.floor(aa)
-        ib = np.floor(ab)
-        fa[i] = aa - ia
-        fb[i] = ab - ib
-        rho[i] = e[i] / (b[i] - a[i])
-        base = rows[i] * stride + 1
-        ba[i] = base + np.int64(ia)
-        bb[i] = base + np.int64(ib)
-    # the four terms in the order np.bincount saw them (all rays' first terms, then …)
-    for i in range(n):
+    # the four terms in the order np.bincount saw them (all boxes' first terms, then …)
+    for i in range(m):
         d2[ba[i]] += rho[i] * (1.0 - fa[i])
-    for i in range(n):
+    for i in range(m):
         d2[ba[i] + 1] += rho[i] * fa[i]
-    for i in range(n):
+    for i in range(m):
         d2[bb[i]] += -rho[i] * (1.0 - fb[i])
-    for i in range(n):
+    for i in range(m):
         d2[bb[i] + 1] += -rho[i] * fb[i]
     out = np.empty((n_rows, n_bins))
     for r in range(n_rows):
@@ -63,28 +58,38 @@ def splat_boxes(rows, a, b, e, n_rows, n_bins):
     return out
 
 
+@numba.njit(cache=True)
+def _box_arrays(m):
+    """Empty ba, bb (int64), rho, fa, fb arrays for m boxes."""
+    return (np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m), np.empty(m), np.empty(m))
+
+
 @numba.njit(cache=True, error_model="numpy")
-def label_cells(rows, a, b, bg, lab, n_rows, n_bins):
-    """Labels (n_rows, n_bins) int32 of the background footprints: 0 where a seabed
-    footprint covers the cell, else −2 where an unlabelled geom's does, else −1; and
-    each footprint's integer cell span [start, end) clipped to [0, n_bins]."""
+def splat_boxes(rows, a, b, e, n_rows, n_bins):
+    """Energies ``e`` (N,) spread uniformly over fractional bin spans [a, b) of row
+    ``rows`` (N,) int64; returns (n_rows, n_bins) float64, clipped at 0."""
     n = rows.size
-    start = np.empty(n, np.int64)
-    end = np.empty(n, np.int64)
-    stride = n_bins + 1
-    c_sb = np.zeros(n_rows * stride, np.int64)
-    c_ot = np.zeros(n_rows * stride, np.int64)
+    ba, bb, rho, fa, fb = _box_arrays(n)
     for i in range(n):
-        s = np.int64(min(max(np.floor(a[i]), 0.0), float(n_bins)))
-        t = np.int64(min(max(np.ceil(b[i]), 0.0), float(n_bins)))
-        start[i] = s
-        end[i] = t
-        if bg[i] and lab[i] == 0:
-            c_sb[rows[i] * stride + s] += 1
-            c_sb[rows[i] * stride + t] -= 1
-        elif bg[i] and lab[i] == -2:
-            c_ot[rows[i] * stride + s] += 1
-            c_ot[rows[i] * stride + t] -= 1
+        ba[i], bb[i], rho[i], fa[i], fb[i] = _box_term(rows[i], a[i], b[i], e[i], n_bins)
+    return _splat_sum(ba, bb, rho, fa, fb, n, n_rows, n_bins)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _span(a, b, n_bins):
+    """A footprint's integer cell span [floor(a), ceil(b)) clipped to [0, n_bins]."""
+    s = np.int64(min(max(np.floor(a), 0.0), float(n_bins)))
+    t = np.int64(min(max(np.ceil(b), 0.0), float(n_bins)))
+    return s, t
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _labels(c_sb, c_ot, n_rows, n_bins):
+    """Labels (n_rows, n_bins) int32 from the coverage counts of the background footprints
+    (+1 / −1 at the ends of each span, n_bins + 1 per row): ``c_sb`` of the seabed's
+    (label 0), ``c_ot`` of unlabelled geoms' (−2): 0 where a seabed footprint covers the
+    cell, else −2 where an unlabelled geom's does, else −1."""
+    stride = n_bins + 1
     labels = np.empty((n_rows, n_bins), np.int32)
     for q in range(n_rows):
         s0 = 0
@@ -93,75 +98,75 @@ def label_cells(rows, a, b, bg, lab, n_rows, n_bins):
             s0 += c_sb[q * stride + k]
             s1 += c_ot[q * stride + k]
             labels[q, k] = 0 if s0 > 0 else (-2 if s1 > 0 else -1)
-    return labels, start, end
+    return labels
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _shaped_boxes(rows, f, k, sub, src):
-    """The boxes of the shaped splat: the footprints with one sub-box (k == 1, in ray
-    order) followed by the sub-boxes (spans ``sub[0:2]``, exponentiated log-weights
-    ``sub[2]``), each sub-box getting its ray's background energy × weight / (sum of the
-    ray's weights). Returns rows, starts, ends and energies of all boxes."""
-    nn = 0
-    for i in range(k.size):
-        if k[i] == 1:
-            nn += 1
-    m = nn + src.size
-    rr = np.empty(m, np.int64)
-    aa = np.empty(m)
-    bb = np.empty(m)
-    ee = np.empty(m)
-    p = 0
-    for i in range(k.size):
-        if k[i] == 1:
-            rr[p], aa[p], bb[p], ee[p] = rows[i], f[F_START, i], f[F_END, i], f[F_EBG, i]
-            p += 1
-    q = 0
-    while q < src.size:
-        ray = src[q]
-        s = 0.0
-        for j in range(k[ray]):
-            s += sub[2, q + j]
-        for j in range(k[ray]):
-            rr[p], aa[p], bb[p] = rows[ray], sub[0, q + j], sub[1, q + j]
-            ee[p] = f[F_EBG, ray] * (sub[2, q + j] / s)
-            p += 1
-        q += k[ray]
-    return rr, aa, bb, ee
+def label_cells(rows, a, b, lab, n_rows, n_bins):
+    """Labels (n_rows, n_bins) int32 of the background footprints (label < 1; see
+    :func:`_labels`) and each footprint's integer cell span [start, end) clipped to
+    [0, n_bins]."""
+    n = rows.size
+    start = np.empty(n, np.int64)
+    end = np.empty(n, np.int64)
+    c_sb = np.zeros(n_rows * (n_bins + 1), np.int64)
+    c_ot = np.zeros(n_rows * (n_bins + 1), np.int64)
+    stride = n_bins + 1
+    for i in range(n):
+        s, t = _span(a[i], b[i], n_bins)
+        start[i] = s
+        end[i] = t
+        if lab[i] == 0:
+            c_sb[rows[i] * stride + s] += 1
+            c_sb[rows[i] * stride + t] -= 1
+        elif lab[i] == -2:
+            c_ot[rows[i] * stride + s] += 1
+            c_ot[rows[i] * stride + t] -= 1
+    return _labels(c_sb, c_ot, n_rows, n_bins), start, end
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _centre_means(f, lab, rows, r, dirs, n_cells, n_bins, acc):
+def _centre_means(cell, cnt, f, r, dirs):
     """Known cells (ascending) and their energy-weighted mean hit offsets (3, K) from the
-    origin: cells row · n_bins + floor(fc) holding background footprint centres, each
-    Σ (E + 1e-300)·r·d / Σ (E + 1e-300) over its rays, summed in input order. ``acc``
-    (n_cells, 3) is scratch for the numerators."""
-    den = np.zeros(n_cells)
-    cnt = np.zeros(n_cells, np.int32)
-    acc[:] = 0.0
-    for i in range(lab.size):
-        fc = f[F_CENTRE, i]
-        if lab[i] != -1 and lab[i] < 1 and fc >= 0 and fc < n_bins:
-            cell = rows[i] * n_bins + np.int64(fc)
-            ew = f[F_ENERGY, i] + 1e-300
-            ewr = ew * r[i]
-            den[cell] += ew
-            cnt[cell] += 1
-            for c in range(3):
-                acc[cell, c] += ewr * dirs[i, c]
+    origin: ``cell`` (N,) the cell row · n_bins + floor(fc) holding ray i's background
+    footprint centre (−1: none), ``cnt`` (n_cells,) int32 the rays per cell (used up);
+    each known cell gets Σ (E + 1e-300)·r·d / Σ (E + 1e-300) over its rays, summed in
+    input order (a counting sort by cell)."""
     nk = 0
-    for q in range(n_cells):
-        if cnt[q] > 0:
+    tot = 0
+    for q in range(cnt.size):  # counts → each cell's first slot
+        c = cnt[q]
+        if c > 0:
             nk += 1
+        cnt[q] = tot
+        tot += c
+    order = np.empty(tot, np.int64)
+    for i in range(cell.size):
+        if cell[i] >= 0:
+            order[cnt[cell[i]]] = i
+            cnt[cell[i]] += 1
     xk = np.empty(nk)
     yk = np.empty((3, nk))
-    j = 0
-    for q in range(n_cells):
-        if cnt[q] > 0:
-            xk[j] = q
+    j = -1
+    den = 0.0
+    num = np.zeros(3)
+    for p in range(tot + 1):
+        if p == tot or (p > 0 and cell[order[p]] != cell[order[p - 1]]):
             for c in range(3):
-                yk[c, j] = acc[q, c] / den[q]
+                yk[c, j] = num[c] / den
+            if p == tot:
+                break
+        i = order[p]
+        if p == 0 or cell[i] != cell[order[p - 1]]:
             j += 1
+            xk[j] = cell[i]
+            den = 0.0
+            num[:] = 0.0
+        ew = f[F_ENERGY, i] + 1e-300
+        ewr = ew * r[i]
+        den += ew
+        for c in range(3):
+            num[c] += ewr * dirs[i, c]
     return xk, yk
 
 
@@ -216,22 +221,66 @@ def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, out
 
 @numba.njit(cache=True, error_model="numpy")
 def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, bins_first):
-    """Mean (n_rows, n_bins) of the background footprints (shaped splat of
-    :func:`_shaped_boxes`), labels (n_rows, n_bins) int32 (:func:`label_cells`), the
-    background hit positions (n_rows · n_bins, 3) world m (:func:`_centre_means`
-    interpolated along range; NaN where the label is −1) and each footprint's cell span
-    [start, end). ``f``: :func:`sim.sonar.echo_kernels.footprint_pass`'s terms; ``sub``,
-    ``src``: :func:`sim.sonar.echo_kernels.subbox_pass`'s, log-weights exponentiated."""
-    rr, aa, bb, ee = _shaped_boxes(rows, f, k, sub, src)
-    mean = splat_boxes(rr, aa, bb, ee, n_rows, n_bins)
+    """Mean (n_rows, n_bins) of the background footprints, labels (n_rows, n_bins) int32
+    (as :func:`label_cells`), the background hit positions (n_rows · n_bins, 3) world m
+    (:func:`_centre_means` interpolated along range; NaN where the label is −1) and each
+    footprint's cell span [start, end). ``f``:
+    :func:`sim.sonar.echo_kernels.footprint_pass`'s terms; ``sub``, ``src``:
+    :func:`sim.sonar.echo_kernels.subbox_pass`'s, log-weights exponentiated.
+
+    The mean is the splat of the footprints with one sub-box (k == 1, in ray order)
+    followed by the sub-boxes, each getting its ray's background energy × weight / (sum
+    of the ray's weights). One loop over the rays collects their label spans, centre
+    cells and one-box terms."""
     n = lab.size
-    bg = np.empty(n, np.bool_)
+    n_cells = n_rows * n_bins
+    start = np.empty(n, np.int64)
+    end = np.empty(n, np.int64)
+    c_sb = np.zeros(n_rows * (n_bins + 1), np.int64)
+    c_ot = np.zeros(n_rows * (n_bins + 1), np.int64)
+    cell = np.empty(n, np.int64)
+    cnt = np.zeros(n_cells, np.int32)
+    ba, bb, rho, fa, fb = _box_arrays(n + src.size)
+    m = 0
     for i in range(n):
-        bg[i] = lab[i] != -1 and lab[i] < 1
-    labels, start, end = label_cells(rows, f[F_START], f[F_END], bg, lab, n_rows, n_bins)
-    size = n_rows * n_bins
-    pos = np.empty((size, 3))
-    xk, yk = _centre_means(f, lab, rows, r, dirs, size, n_bins, pos)
-    _interpolate_positions(xk, yk, origin, labels.reshape(-1) != -1, n_rows, n_bins,
-                           bins_first, pos)  # fmt: skip
+        a = f[F_START, i]
+        b = f[F_END, i]
+        s, t = _span(a, b, n_bins)
+        start[i] = s
+        end[i] = t
+        li = lab[i]
+        if li == 0:
+            c_sb[rows[i] * (n_bins + 1) + s] += 1
+            c_sb[rows[i] * (n_bins + 1) + t] -= 1
+        elif li == -2:
+            c_ot[rows[i] * (n_bins + 1) + s] += 1
+            c_ot[rows[i] * (n_bins + 1) + t] -= 1
+        bg = li == 0 or li == -2
+        fc = f[F_CENTRE, i]
+        cell[i] = -1
+        if bg and fc >= 0 and fc < n_bins:
+            cell[i] = rows[i] * n_bins + np.int64(fc)
+            cnt[cell[i]] += 1
+        if k[i] == 1:
+            ba[m], bb[m], rho[m], fa[m], fb[m] = _box_term(rows[i], a, b, f[F_EBG, i], n_bins)
+            m += 1
+    q = 0
+    while q < src.size:  # the sub-boxes, each ray's in turn
+        ray = src[q]
+        w = 0.0
+        for j in range(k[ray]):
+            w += sub[2, q + j]
+        for j in range(k[ray]):
+            e = f[F_EBG, ray] * (sub[2, q + j] / w)
+            ba[m], bb[m], rho[m], fa[m], fb[m] = _box_term(
+                rows[ray], sub[0, q + j], sub[1, q + j], e, n_bins
+            )
+            m += 1
+        q += k[ray]
+    mean = _splat_sum(ba, bb, rho, fa, fb, m, n_rows, n_bins)
+    labels = _labels(c_sb, c_ot, n_rows, n_bins)
+    xk, yk = _centre_means(cell, cnt, f, r, dirs)
+    pos = np.empty((n_cells, 3))
+    want = labels.reshape(-1) != -1
+    _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, pos)
     return mean, labels, pos, start, end

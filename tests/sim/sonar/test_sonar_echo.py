@@ -38,15 +38,15 @@ def test_box_splat_equals_bruteforce_overlap(seed, n):
 def test_label_cells_follow_the_covering_spans(seed):
     """Brute force: cell k of row r is 0 when a seabed background footprint's cell span
     [floor(a), ceil(b)) of that row contains it, else −2 when an unlabelled geom's does,
-    else −1; object (label ≥ 1) and non-background footprints label nothing."""
+    else −1; object (label ≥ 1) and missed (−1) footprints label nothing."""
     rng = np.random.default_rng(seed)
     n = 60
     a = rng.uniform(-3.0, 32.0, n)
     b = a + rng.uniform(0.0, 8.0, n)
     rows = rng.integers(0, 2, n)
-    lab = rng.choice(np.array([0, -2, 3], np.int32), n)
-    bg = (lab != 3) & (rng.uniform(size=n) < 0.9)
-    labels, start, end = label_cells(rows, a, b, bg, lab, 2, 30)
+    lab = rng.choice(np.array([0, -2, 3, -1], np.int32), n)
+    bg = (lab == 0) | (lab == -2)
+    labels, start, end = label_cells(rows, a, b, lab, 2, 30)
     s = np.clip(np.floor(a), 0, 30).astype(int)
     e = np.clip(np.ceil(b), 0, 30).astype(int)
     np.testing.assert_array_equal(start, s)
