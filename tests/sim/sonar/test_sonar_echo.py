@@ -66,8 +66,10 @@ def test_form_echo_same_bytes_as_the_array_version():
     """Second implementation: on side-scan and forward-looking fans over a rolling seabed
     with static objects and a moving box (background, objects, vehicle-free hits, wide
     sub-boxed footprints, neighbour links), the compiled scatters give the same mean,
-    labels and hit positions, byte for byte, as the array version they replaced; the FLS
-    layout (``bins_first``) is the transpose of the same positions."""
+    labels and hit positions, byte for byte, as the array version they replaced — also
+    with the realistic preset's sediment seabed, facet glint and object gain, and
+    without neighbour links; the FLS layout (``bins_first``) is the transpose of the
+    same positions."""
     import sys
     from pathlib import Path
 
@@ -117,6 +119,11 @@ def test_form_echo_same_bytes_as_the_array_version():
             fan.neighbours,
         )
     ]
+    rz = SideScanSonar(preset("deepeye680d_realistic"), m, d, sc.sites["sss"], *args).mount
+    assert rz.seabed is not None and rz.object_specular is not None
+    realistic = (rz.seabed, rz.object_specular, 2.0)  # object gain ≠ 1: its branch too
+    cases.append((*cases[0][:10], *common, fan.neighbours, *realistic))
+    cases.append((*cases[0][:10], *common, None))  # no links: the −3/r slope of wide boxes
     fm = fls.mount
     pf, Rf = fm.pose(d, sc.sites["fls"])
     df, ddf = fls._d_local @ Rf.T, fls._dd_local @ Rf.T

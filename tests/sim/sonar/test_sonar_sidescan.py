@@ -180,6 +180,20 @@ def test_seeded_runs_are_bit_identical(box_scene):
     assert a.intensity.tobytes() != c.intensity.tobytes()
 
 
+def test_one_rotation_of_the_stacked_fan_equals_separate_products(box_scene):
+    """Second formulation: the ping rotates its fan, probe and derivatives with one product
+    of the stacked local array; the world directions and derivatives are the same bytes
+    as ``fan.directions @ R.T`` and ``fan.d_directions @ R.T`` taken apart, for the
+    first ping (fan built after the probe) and a cached-fan ping."""
+    son = _sonar(box_scene)
+    d = box_scene.data
+    p, R = son.mount.pose(d, son.mount.site_ids[0])
+    for _ in range(2):
+        _, fan, dirs, d_dirs, _ = son._cast_ping(d, p, R)
+        assert dirs.tobytes() == (fan.directions @ R.T).tobytes()
+        assert d_dirs.tobytes() == (fan.d_directions @ R.T).tobytes()
+
+
 def test_label_centroid_maps_back_to_object_position():
     """Ground truth: the labelled samples of a small sphere, over a survey line, have hit
     positions whose centroid lies within (radius + one bin + ping spacing) of its centre."""
