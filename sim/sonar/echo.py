@@ -28,8 +28,8 @@ whose footprint centre is in the cell, interpolated along range between such cel
 where the label is −1).
 
 Computed in three compiled per-ray passes (:mod:`sim.sonar.echo_kernels`) and one
-compiled image pass (:mod:`sim.sonar.echo_image`), with numpy's ``exp``/``log``/
-``arccos`` applied in place between them; the object footprints (few rays) in numpy.
+compiled image pass (:mod:`sim.sonar.echo_image`, which also adds the object
+footprints), with numpy's ``exp``/``log``/``arccos`` applied in place between them.
 """
 
 from __future__ import annotations
@@ -38,12 +38,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.sonar.echo_image import image_pass, splat_boxes
+from sim.sonar.echo_image import image_pass, object_pass, splat_boxes
 from sim.sonar.echo_kernels import (
     F_DENS,
-    F_END,
-    F_ENERGY,
-    F_START,
     R_ATT,
     R_COS,
     R_RANGE,
@@ -165,7 +162,7 @@ def form_echo(
     near_cos = np.inf if specular is None else float(np.cos(min(5.0 * specular[1], np.pi / 2)))
     # two-way absorption exponent (the constant as the array version formed it)
     att_k = float(-0.2 * np.log(10.0) * alpha_db_m)
-    t, lab, near = ray_pass(
+    t, lab, near, n_obj = ray_pass(
         hits.geom, hits.dist, hits.normal, dirs, d_dirs, geom_object_id, geom_reflectivity,
         near_cos, att_k,
     )  # fmt: skip
@@ -193,41 +190,9 @@ def form_echo(
     mean, labels, hitpos, start, end = image_pass(
         rows, f, lab, k, sub, src, t[R_RANGE], dirs, o, n_rows, n_bins, bool(bins_first)
     )
-    if (lab >= 1).any():
-        _add_objects(mean, labels, hitpos, f, lab, start, end, rows, t[R_RANGE], dirs, o,
-                     bins_first)  # fmt: skip
+    if n_obj:
+        r = t[R_RANGE]
+        object_pass(mean, labels, hitpos, f, lab, start, end, rows, r, dirs, o, bool(bins_first))
     # cells labelled −1 are NaN already: the objects only wrote cells they label
     shape = (n_bins, n_rows, 3) if bins_first else (n_rows, n_bins, 3)
     return Echo(mean, labels, hitpos.reshape(shape))
-
-
-def _add_objects(mean, labels, hitpos, f, lab, start, end, rows, r, dirs, origin, bins_first):
-    """Add the object footprints (label ≥ 1) to ``mean``, ``labels`` and ``hitpos`` in
-    place: each footprint expanded into its cells (few rays: a vectorized repeat), sorted
-    by id so the highest id wins where objects overlap; per cell the energy-weighted mean
-    of the winning object's hit points."""
-    n_rows, n_bins = mean.shape
-    flat_lab = labels.reshape(-1)
-    energy, a, b = f[F_ENERGY], f[F_START], f[F_END]
-    o = np.flatnonzero(lab >= 1)
-    o = o[np.argsort(lab[o], kind="stable")]
-    span = np.maximum(end[o] - start[o], 0)
-    rep = np.repeat(np.arange(len(o)), span)
-    first = np.repeat(np.cumsum(span) - span, span)
-    cell_bin = start[o][rep] + (np.arange(rep.size) - first)
-    oa, ob = a[o][rep], b[o][rep]
-    frac = np.clip(np.minimum(ob, cell_bin + 1.0) - np.maximum(oa, cell_bin), 0.0, None) / (ob - oa)
-    e_cell = energy[o][rep] * frac
-    ocell = rows[o][rep] * n_bins + cell_bin
-    # sums per touched cell (np.unique's inverse keeps each cell's addition order)
-    u, inv = np.unique(ocell, return_inverse=True)
-    mean.reshape(-1)[u] += np.bincount(inv, e_cell, minlength=u.size)
-    flat_lab[ocell] = lab[o][rep]
-    win = flat_lab[ocell] == lab[o][rep]
-    ew = e_cell[win] + 1e-300
-    u, inv = np.unique(ocell[win], return_inverse=True)
-    den = np.bincount(inv, ew, minlength=u.size)
-    opos = origin[None, :] + dirs[o][rep][win] * r[o][rep][win][:, None]
-    out = (u % n_bins) * n_rows + u // n_bins if bins_first else u
-    for c in range(3):
-        hitpos[out, c] = np.bincount(inv, ew * opos[:, c], minlength=u.size) / den

@@ -29,13 +29,15 @@ def ray_pass(geom, dist, normal, dirs, d_dirs, geom_object_id, geom_reflectivity
     """Per-ray terms (7, N) float64 — range r m (0 for a miss), cos θ = |n·d|, |n·∂d|,
     reflectivity of the geom, σ/(μ cos θ) before the specular lobe (= cos θ), the
     absorption exponent att_k·r (to be exponentiated) and |∂d| — plus the labels (N,)
-    int32 (object id, −2 for a hit on an unlabelled geom, −1 for a miss) and the indices
-    of the rays with cos θ > ``cos_near`` (the specular lobe's support)."""
+    int32 (object id, −2 for a hit on an unlabelled geom, −1 for a miss), the indices
+    of the rays with cos θ > ``cos_near`` (the specular lobe's support) and the number
+    of rays on objects (label ≥ 1)."""
     n = geom.size
     t = np.empty((7, n))
     lab = np.empty(n, np.int32)
     near = np.empty(n, np.int64)
     p = 0
+    n_obj = 0
     for i in range(n):
         h = geom[i] >= 0
         gi = geom[i] if h else 0
@@ -54,10 +56,12 @@ def ray_pass(geom, dist, normal, dirs, d_dirs, geom_object_id, geom_reflectivity
         )
         lb = np.int32(geom_object_id[gi]) if h else np.int32(-1)
         lab[i] = np.int32(-2) if (h and lb < 0) else lb
+        if lab[i] >= 1:
+            n_obj += 1
         if c > cos_near:
             near[p] = i
             p += 1
-    return t, lab, near[:p]
+    return t, lab, near[:p], n_obj
 
 
 @numba.njit(cache=True, error_model="numpy")
