@@ -10,6 +10,10 @@ an idle core; on a shared machine the wall rate drops with the load average, als
 
     undersea bench sonar [--json] [--pings N] [--frames N] [--quick] [--pre DIR] [--main DIR]
 
+The SSS ping is also profiled (cProfile, process CPU time): ms per ping by stage (cast,
+echo formation, receive chain, rotation/altitude/record) and of the largest sim/sonar
+functions, numpy calls charged to the function that made them.
+
 ``--pre DIR`` / ``--main DIR``: also time a default SSS ping and the 256 × 512 × 16 FLS
 frame with the sonar code of another checkout (``--pre``: the code before issue 16, e.g.
 ``git worktree add /tmp/pre f591a7e``; ``--main``: main when this round started), called
