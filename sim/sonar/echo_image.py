@@ -126,25 +126,36 @@ def label_cells(rows, a, b, lab, n_rows, n_bins):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _centre_means(cell, cnt, f, r, dirs):
+def _centre_means(cell, m, n_cells, f, r, dirs):
     """Known cells (ascending) and their energy-weighted mean hit offsets (3, K) from the
     origin: ``cell`` (N,) the cell row · n_bins + floor(fc) holding ray i's background
-    footprint centre (−1: none), ``cnt`` (n_cells,) int32 the rays per cell (used up);
-    each known cell gets Σ (E + 1e-300)·r·d / Σ (E + 1e-300) over its rays, summed in
-    input order (a counting sort by cell)."""
+    footprint centre (−1: none; ``m`` rays have one); each known cell gets
+    Σ (E + 1e-300)·r·d / Σ (E + 1e-300) over its rays, summed in input order (rays
+    ordered by cell, stably: a counting sort when the image has few cells per ray, as
+    the side-scan's, else a merge sort of the m rays, as for FLS images)."""
+    if n_cells <= 4 * m:
+        cnt = np.zeros(n_cells, np.int64)
+        for i in range(cell.size):
+            if cell[i] >= 0:
+                cnt[cell[i]] += 1
+        tot = 0
+        for q in range(n_cells):  # counts → each cell's first slot
+            c = cnt[q]
+            cnt[q] = tot
+            tot += c
+        order = np.empty(m, np.int64)
+        for i in range(cell.size):
+            if cell[i] >= 0:
+                order[cnt[cell[i]]] = i
+                cnt[cell[i]] += 1
+    else:
+        idx = np.flatnonzero(cell >= 0)
+        order = idx[np.argsort(cell[idx], kind="mergesort")]
+    tot = order.size
     nk = 0
-    tot = 0
-    for q in range(cnt.size):  # counts → each cell's first slot
-        c = cnt[q]
-        if c > 0:
+    for p in range(tot):
+        if p == 0 or cell[order[p]] != cell[order[p - 1]]:
             nk += 1
-        cnt[q] = tot
-        tot += c
-    order = np.empty(tot, np.int64)
-    for i in range(cell.size):
-        if cell[i] >= 0:
-            order[cnt[cell[i]]] = i
-            cnt[cell[i]] += 1
     xk = np.empty(nk)
     yk = np.empty((3, nk))
     if tot == 0:
@@ -241,7 +252,7 @@ def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, bins_
     c_sb = np.zeros(n_rows * (n_bins + 1), np.int64)
     c_ot = np.zeros(n_rows * (n_bins + 1), np.int64)
     cell = np.empty(n, np.int64)
-    cnt = np.zeros(n_cells, np.int32)
+    n_centre = 0
     ba, bb, rho, fa, fb = _box_arrays(n + src.size)
     m = 0
     for i in range(n):
@@ -262,7 +273,7 @@ def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, bins_
         cell[i] = -1
         if bg and fc >= 0 and fc < n_bins:
             cell[i] = rows[i] * n_bins + np.int64(fc)
-            cnt[cell[i]] += 1
+            n_centre += 1
         if k[i] == 1:
             ba[m], bb[m], rho[m], fa[m], fb[m] = _box_term(rows[i], a, b, f[F_EBG, i], n_bins)
             m += 1
@@ -281,7 +292,7 @@ def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, bins_
         q += k[ray]
     mean = _splat_sum(ba, bb, rho, fa, fb, m, n_rows, n_bins)
     labels = _labels(c_sb, c_ot, n_rows, n_bins)
-    xk, yk = _centre_means(cell, cnt, f, r, dirs)
+    xk, yk = _centre_means(cell, n_centre, n_cells, f, r, dirs)
     pos = np.empty((n_cells, 3))
     want = labels.reshape(-1) != -1
     _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, pos)
