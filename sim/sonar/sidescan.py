@@ -35,7 +35,9 @@ class RayFan:
     """The rays of one SSS ping in the sensor frame: directions (N, 3) unit; d_directions
     (N, 3) = ∂d/∂θ·Δθ; gain (N,) SL·b²·ΔΩ·μ; rows (N,) 0 port / 1 starboard; neighbours
     (N − 1,) bool, True where rays j and j + 1 are consecutive in θ; cones: bounding
-    cones (sensor frame) of ``directions`` followed by the nadir probe's rays; local:
+    cones (sensor frame) of ``directions`` followed by the nadir probe's rays;
+    side_cones: (port, starboard) cones of each side's directions for a two-site sonar
+    (each side cast from its own site; None for one site); local:
     (2N + P, 3) the directions, the P probe rays and the d_directions in one array (one
     rotation per ping turns all three into the world frame; ``directions`` and
     ``d_directions`` are views of it)."""
@@ -47,6 +49,7 @@ class RayFan:
     rows: np.ndarray
     neighbours: np.ndarray
     cones: RayCones
+    side_cones: tuple[RayCones, RayCones] | None = None
 
 
 class SideScanSonar:
@@ -208,6 +211,11 @@ class SideScanSonar:
             rows=np.repeat(np.array([0, 1], np.int64), parts[0][0].shape[0]),
             neighbours=(j % nt < nt - 1)[:-1],
             cones=ray_cones(np.concatenate([d_loc, self._probe_local])),
+            side_cones=(
+                None
+                if self.mount.site_ids[0] == self.mount.site_ids[1]
+                else (ray_cones(d_loc[: n // 2]), ray_cones(d_loc[n // 2 :]))
+            ),
         )
         self._fan_cache = (key, fan)
         return fan
@@ -295,7 +303,7 @@ class SideScanSonar:
             out = []
             for k, p in enumerate((p_port, p_stbd)):
                 sl = slice(k * n_side, (k + 1) * n_side)
-                h = m.backend.cast(data, p, dirs[sl], m.cutoff)
+                h = m.backend.cast(data, p, dirs[sl], m.cutoff, fan.side_cones[k].rotated(R))
                 out.append(
                     form_echo(
                         h,
