@@ -10,6 +10,10 @@ an idle core; on a shared machine the wall rate drops with the load average, als
 
     undersea bench sonar [--json] [--pings N] [--frames N] [--quick] [--pre DIR] [--main DIR]
 
+The SSS ping is also profiled (cProfile, process CPU time): ms per ping by stage (cast,
+echo formation, receive chain, rotation/altitude/record) and of the largest sim/sonar
+functions, numpy calls charged to the function that made them.
+
 ``--pre DIR`` / ``--main DIR``: also time a default SSS ping and the 256 × 512 × 16 FLS
 frame with the sonar code of another checkout (``--pre``: the code before issue 16, e.g.
 ``git worktree add /tmp/pre f591a7e``; ``--main``: main when this round started), called
@@ -24,8 +28,15 @@ import json
 import os
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:  # loaded by file path (undersea bench): the checkout's root
+    sys.path.insert(0, str(REPO))
+
+from benchmarks.sonar_profile import ping_profile, print_profile  # noqa: E402
 
 
 def _scene(cells: int):
@@ -227,6 +238,7 @@ def print_goals(out: dict) -> None:
             f"  {what:42s} {a:7.3f} / {b:7.3f} ms = {v:5.2f}x   goal {cmp} {goal}x"
             f"   {'met' if ok else 'MISSED'}"
         )
+    print_profile(out)
     for label in ("pre", "main"):
         if f"compare_fls_speedup_over_{label}" not in out:
             continue
@@ -369,6 +381,7 @@ def main(argv: list[str] | None = None) -> int:
         sss_cfg, m, d, sc.sites["sss"], sc.geom_object_id, sc.geom_reflectivity, sc.water
     )
     out.update(ping_vs_cast(sss, sc, mover, args.pings))
+    out.update(ping_profile(sss, sc, mover, max(20, args.pings // 2)))
     out.update(fls_echo_share(fls_cfg, sc, mover, max(3, args.frames // 2)))
     roots = {k: v for k, v in (("pre", args.pre), ("main", args.main)) if v}
     if roots:
@@ -404,7 +417,8 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(out))
     else:
         for k, v in out.items():
-            print(f"{k:>28}: {v}")
+            if not k.startswith("sss_profile_ms_per_ping_"):
+                print(f"{k:>28}: {v}")
         print_goals(out)
     return 0
 

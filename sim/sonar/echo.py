@@ -13,8 +13,12 @@ range footprint: towards a neighbouring ray of the same fan that hit the same la
 surface, up to the midpoint of the two hits; elsewhere (fan ends, object edges) over the
 local-plane extent r · |n·∂d/∂θ| Δθ / |n·d|. Adjacent rays thus tile the range axis
 without gaps, and shadows appear where no footprint lands. Binning is a closed-form box
-splat done with one ``np.bincount`` and one ``cumsum`` per image (hand-written: no library
-bins box footprints into range cells).
+splat: a second-difference array and one prefix sum per image (hand-written: no library
+bins box footprints into range cells). A footprint wider than ``SUBBOX_BINS`` is split
+into sub-boxes whose energies follow exp(slope·(x − fc)) (normalised per ray; the slope
+of log box density from the linked neighbours, else −3 / r in bins), so a coarse fan's
+intensity follows the range law inside each footprint instead of stepping between
+footprints.
 
 Labels per range cell: the id of the highest-priority class whose footprint covers it
 (object k ≥ 1 beats seabed 0 beats unlabelled geoms −2, e.g. vehicles; −1 = no return).
@@ -22,6 +26,10 @@ Hit position per cell: for objects, the energy-weighted mean of the hit points o
 object's rays covering the cell; for the background, the energy-weighted mean of the hits
 whose footprint centre is in the cell, interpolated along range between such cells (NaN
 where the label is −1).
+
+Computed in three compiled per-ray passes (:mod:`sim.sonar.echo_kernels`) and one
+compiled image pass (:mod:`sim.sonar.echo_image`, which also adds the object
+footprints), with numpy's ``exp``/``log``/``arccos`` applied in place between them.
 """
 
 from __future__ import annotations
@@ -30,18 +38,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.sonar.echo_image import image_pass, object_pass, splat_boxes
 from sim.sonar.echo_kernels import (
-    background_positions,
-    centre_cells,
-    footprints,
-    label_cells,
-    neighbour_log_slope,
-    ray_terms,
-    share_energy,
-    splat_boxes,
-    splat_narrow_and_sub,
-    split_widths,
-    sub_boxes,
+    F_DENS,
+    R_ATT,
+    R_COS,
+    R_RANGE,
+    R_REFL,
+    R_SOC,
+    footprint_pass,
+    ray_pass,
+    subbox_pass,
 )
 from sim.sonar.rays import RayHits
 
@@ -78,62 +85,28 @@ def _splat_energy(rows, a, b, e, n_rows, n_bins):
 
 SUBBOX_BINS = 2.0  # wide footprints are split into sub-boxes of about this many bins
 MAX_SUBBOXES = 32
+_NO_LINKS = np.zeros(0, np.bool_)
 
 
-def _splat_shaped(rows, a, b, e, fc, r_bins, link, n_rows, n_bins):
-    """Like :func:`_splat_energy`, but a footprint wider than ``SUBBOX_BINS`` is split
-    into sub-boxes whose energies follow exp(slope·(x − fc)) (normalised per ray; slope
-    from :func:`_log_density_slope`), so a coarse fan's intensity follows the range law
-    inside each footprint instead of stepping between footprints. ``link`` refers to the
-    full ray arrays, which all the other arguments are."""
-    k, wide, dens = split_widths(a, b, e, SUBBOX_BINS, MAX_SUBBOXES)
-    if wide.size == 0:
-        return splat_narrow_and_sub(rows, a, b, e, k, wide, a[:0], a[:0], a[:0], n_rows, n_bins)
-    if link is None:
-        slope = -3.0 / np.maximum(r_bins[wide], 1.0)
-    else:  # np.log: numpy's, as before, for the same bytes
-        slope = neighbour_log_slope(wide, fc, np.log(dens), r_bins, link)
-    kw = k[wide]
-    src, sa, sb, x = sub_boxes(wide, kw, b - a, a, fc, slope)
-    e_sub = share_energy(kw, np.exp(x), e, src)
-    return splat_narrow_and_sub(rows, a, b, e, k, src, sa, sb, e_sub, n_rows, n_bins)
-
-
-def _realistic_sigma(
-    hit,
-    g,
-    r,
-    n,
-    dirs,
-    origin,
-    cos_i,
-    refl,
-    sigma_over_cos,
-    geom_object_id,
-    seabed,
-    obj_spec,
-    obj_gain,
-):
-    """Seabed hits: σ/μ from the sediment field (reflectivity 1); object hits: Lambert
-    term × obj_gain plus the per-facet specular glint. Returns new (refl, σ/(μ cos θ))."""
-    refl = refl.copy()
-    soc = sigma_over_cos.copy()
-    oid = np.where(hit, geom_object_id[g], -1)
+def _realistic_sigma(t, lab, normal, dirs, origin, seabed, obj_spec, obj_gain) -> None:
+    """Seabed hits (label 0): σ/μ from the sediment field (reflectivity 1); object hits
+    (label ≥ 1): Lambert term × obj_gain plus the per-facet specular glint. Updates the
+    reflectivity and σ/(μ cos θ) rows of :func:`ray_pass`'s terms ``t`` in place."""
+    refl, soc, cos_i, r = t[R_REFL], t[R_SOC], t[R_COS], t[R_RANGE]
     if seabed is not None:
-        sb = np.flatnonzero(oid == 0)
+        sb = np.flatnonzero(lab == 0)
         if sb.size:
             pts = origin[None, :] + dirs[sb] * r[sb, None]
-            s = seabed.sigma_over_mu(pts, n[sb], dirs[sb])
+            s = seabed.sigma_over_mu(pts, normal[sb], dirs[sb])
             refl[sb] = 1.0
             soc[sb] = s / np.maximum(cos_i[sb], 0.02)
-    ob = np.flatnonzero(oid >= 1)
+    ob = np.flatnonzero(lab >= 1)
     soc[ob] *= obj_gain
     if obj_spec is not None:
         peak, w = obj_spec
         cn = np.minimum(cos_i[ob], 1.0)
         lobe = peak * np.exp(-0.5 * (np.arccos(cn) / w) ** 2)
         soc[ob] += lobe / np.maximum(cn, 0.05)
-    return refl, soc
 
 
 def form_echo(
@@ -185,98 +158,41 @@ def form_echo(
     those rays' hit points; covered cells between centres are linearly interpolated along
     range (their footprint spreads a ray over several cells).
     """
-    n = hits.normal
-    hit, g, r, cos_i, ndd, refl, lab = ray_terms(
-        hits.geom, hits.dist, n, dirs, d_dirs, geom_object_id, geom_reflectivity
-    )
+    o = np.asarray(origin, float)
+    near_cos = np.inf if specular is None else float(np.cos(min(5.0 * specular[1], np.pi / 2)))
+    # two-way absorption exponent (the constant as the array version formed it)
+    att_k = float(-0.2 * np.log(10.0) * alpha_db_m)
+    t, lab, near, n_obj = ray_pass(
+        hits.geom, hits.dist, hits.normal, dirs, d_dirs, geom_object_id, geom_reflectivity,
+        near_cos, att_k,
+    )  # fmt: skip
     # Lambert μ cos²θ (μ folded into gain) plus the optional specular lobe, per area
-    # r²ΔΩ/cosθ: E ∝ (μ cos²θ + σ_s(θ)) / cosθ
-    sigma_over_cos = cos_i.copy()
+    # r²ΔΩ/cosθ: E ∝ (μ cos²θ + σ_s(θ)) / cosθ; the lobe is below e^-12.5 of its peak
+    # beyond 5 widths: evaluated only nearer (``near``)
     if specular is not None:
         spec_peak, spec_w = specular
-        # the lobe is below e^-12.5 of its peak beyond 5 widths: evaluate it only nearer
-        near = np.flatnonzero(cos_i > np.cos(min(5.0 * spec_w, np.pi / 2)))
-        cn = np.minimum(cos_i[near], 1.0)
+        cn = np.minimum(t[R_COS][near], 1.0)
         th = np.arccos(cn)
-        sigma_over_cos[near] += spec_peak * np.exp(-0.5 * (th / spec_w) ** 2) / np.maximum(cn, 0.05)
+        t[R_SOC][near] += spec_peak * np.exp(-0.5 * (th / spec_w) ** 2) / np.maximum(cn, 0.05)
     if seabed is not None or object_specular is not None or object_gain != 1.0:
-        refl, sigma_over_cos = _realistic_sigma(
-            hit,
-            g,
-            r,
-            n,
-            dirs,
-            origin,
-            cos_i,
-            refl,
-            sigma_over_cos,
-            geom_object_id,
-            seabed,
-            object_specular,
-            object_gain,
-        )
-    # two-way absorption (np.exp: numpy's, as before, for the same bytes)
-    att = np.exp((-0.2 * np.log(10.0) * alpha_db_m) * r)
-    energy, e_bg, bg, fc, a, b, link = footprints(
-        gain,
-        refl,
-        sigma_over_cos,
-        att,
-        r,
-        hit,
-        ndd,
-        cos_i,
-        lab,
-        d_dirs,
-        neighbours,
-        float(r_min),
-        float(bin_width),
-        n_bins,
-        float(footprint_scale),
-        MIN_EXTENT_BINS,
-        MAX_EXTENT_BINS,
-        MAX_EXTENT_FRACTION,
+        _realistic_sigma(t, lab, hits.normal, dirs, o, seabed, object_specular, object_gain)
+    np.exp(t[R_ATT], out=t[R_ATT])  # numpy's exp, as the array version, for the same bytes
+    use_links = neighbours is not None
+    f, link, k, wide = footprint_pass(
+        gain, t, lab, neighbours if use_links else _NO_LINKS, use_links, float(r_min),
+        float(bin_width), n_bins, float(footprint_scale), MIN_EXTENT_BINS, MAX_EXTENT_BINS,
+        MAX_EXTENT_FRACTION, SUBBOX_BINS, MAX_SUBBOXES,
+    )  # fmt: skip
+    if wide.size and use_links:
+        np.log(f[F_DENS], out=f[F_DENS])  # log box densities for the sub-box slopes
+    sub, src = subbox_pass(wide, k, f, link, t[R_RANGE], float(bin_width))
+    np.exp(sub[2], out=sub[2])
+    mean, labels, hitpos, start, end = image_pass(
+        rows, f, lab, k, sub, src, t[R_RANGE], dirs, o, n_rows, n_bins, bool(bins_first)
     )
-    link = None if neighbours is None else link
-    is_obj = lab >= 1
-    any_obj = bool(is_obj.any())
-    mean = _splat_shaped(rows, a, b, e_bg, fc, r / bin_width, link, n_rows, n_bins)
-    labels, start, end = label_cells(rows, a, b, bg, lab, n_rows, n_bins)
-    # background hit positions: centre cells, then interpolation along range
-    flat_lab = labels.reshape(-1)
-    cell, key, ew, ewr, dc = centre_cells(bg, fc, rows, energy, r, dirs, n_bins)
-    order = np.sort(key)  # unique keys: each cell's rays stay in input order
-    want = flat_lab != -1
-    o = np.asarray(origin, float)
-    hitpos = background_positions(cell, ew, ewr, dc, o, want, n_rows, n_bins, bins_first, order)
-
-    if any_obj:
-        # few rays: expand each footprint into its cells (vectorized repeat); sort by id so
-        # the highest id wins where objects overlap
-        o = np.flatnonzero(is_obj)
-        o = o[np.argsort(lab[o], kind="stable")]
-        span = np.maximum(end[o] - start[o], 0)
-        rep = np.repeat(np.arange(len(o)), span)
-        first = np.repeat(np.cumsum(span) - span, span)
-        cell_bin = start[o][rep] + (np.arange(rep.size) - first)
-        oa, ob = a[o][rep], b[o][rep]
-        frac = np.clip(np.minimum(ob, cell_bin + 1.0) - np.maximum(oa, cell_bin), 0.0, None) / (
-            ob - oa
-        )
-        e_cell = energy[o][rep] * frac
-        ocell = rows[o][rep] * n_bins + cell_bin
-        # sums per touched cell (np.unique's inverse keeps each cell's addition order)
-        u, inv = np.unique(ocell, return_inverse=True)
-        mean.reshape(-1)[u] += np.bincount(inv, e_cell, minlength=u.size)
-        flat_lab[ocell] = lab[o][rep]
-        win = flat_lab[ocell] == lab[o][rep]
-        ew = e_cell[win] + 1e-300
-        u, inv = np.unique(ocell[win], return_inverse=True)
-        den = np.bincount(inv, ew, minlength=u.size)
-        opos = origin[None, :] + dirs[o][rep][win] * r[o][rep][win][:, None]
-        out = (u % n_bins) * n_rows + u // n_bins if bins_first else u
-        for c in range(3):
-            hitpos[out, c] = np.bincount(inv, ew * opos[:, c], minlength=u.size) / den
+    if n_obj:
+        r = t[R_RANGE]
+        object_pass(mean, labels, hitpos, f, lab, start, end, rows, r, dirs, o, bool(bins_first))
     # cells labelled −1 are NaN already: the objects only wrote cells they label
     shape = (n_bins, n_rows, 3) if bins_first else (n_rows, n_bins, 3)
     return Echo(mean, labels, hitpos.reshape(shape))

@@ -33,7 +33,7 @@ class RayCones:
 
     def rotated(self, R: np.ndarray) -> RayCones:
         """The cones of the rays ``d @ R.T`` (e.g. sensor frame → world frame)."""
-        return RayCones(self.axes @ R.T, self.half_angle, self.chunk, self.n)
+        return RayCones(self.axes @ np.ascontiguousarray(R.T), self.half_angle, self.chunk, self.n)
 
     def candidates(self, centres: np.ndarray, radii: np.ndarray, cutoff: float):
         """Ray indices (sorted int64) that may pass within ``radii`` (G,) m of the sphere

@@ -261,7 +261,8 @@ class EmbreeRays:
         )
         self._dyn_rbound = np.ascontiguousarray(model.geom_rbound[self.dyn_geoms], np.float64)
         self._origin32 = np.zeros(3, np.float32)  # the cast's origin, relative to center
-        self._views: tuple[int, np.ndarray, np.ndarray] | None = None  # (n, origins, tmax)
+        # per ray count n: (origins, tmax) views (a two-site side-scan alternates three n)
+        self._views: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def cast_static(self, origins: np.ndarray, dirs: np.ndarray, cutoff: float) -> RayHits:
         """Rays from many origins (N, 3) world m against the static scene only (secondary
@@ -314,13 +315,15 @@ class EmbreeRays:
         """Embree's inputs for n rays from ``origin``: the origins (n, 3) float32, a
         zero-stride view of one buffer (Embree only reads it), and the far limits (n,)
         float32 (``cutoff``; Embree writes the hit distances there), reused between casts."""
-        if self._views is None or self._views[0] != n:
+        if n not in self._views:
+            if len(self._views) >= 4:
+                self._views.clear()
             o = as_strided(self._origin32, shape=(n, 3), strides=(0, 4), writeable=True)
-            self._views = (n, o, np.empty(n, np.float32))
+            self._views[n] = (o, np.empty(n, np.float32))
         np.subtract(origin, self.center, out=self._origin32, casting="same_kind")
-        tmax = self._views[2]
+        o, tmax = self._views[n]
         tmax.fill(cutoff)
-        return self._views[1], tmax
+        return o, tmax
 
     def _near_moving(self, data, origin, dirs, cutoff, cones) -> np.ndarray:
         """Indices of the rays passing within a moving geom's bounding sphere (those go to

@@ -35,14 +35,21 @@ class RayFan:
     """The rays of one SSS ping in the sensor frame: directions (N, 3) unit; d_directions
     (N, 3) = ∂d/∂θ·Δθ; gain (N,) SL·b²·ΔΩ·μ; rows (N,) 0 port / 1 starboard; neighbours
     (N − 1,) bool, True where rays j and j + 1 are consecutive in θ; cones: bounding
-    cones (sensor frame) of ``directions`` followed by the nadir probe's rays."""
+    cones (sensor frame) of ``directions`` followed by the nadir probe's rays;
+    side_cones: (port, starboard) cones of each side's directions for a two-site sonar
+    (each side cast from its own site; None for one site); local:
+    (2N + P, 3) the directions, the P probe rays and the d_directions in one array (one
+    rotation per ping turns all three into the world frame; ``directions`` and
+    ``d_directions`` are views of it)."""
 
+    local: np.ndarray
     directions: np.ndarray
     d_directions: np.ndarray
     gain: np.ndarray
     rows: np.ndarray
     neighbours: np.ndarray
     cones: RayCones
+    side_cones: tuple[RayCones, RayCones] | None = None
 
 
 class SideScanSonar:
@@ -118,7 +125,7 @@ class SideScanSonar:
         NaN if none hit. ``dirs``, ``dist``: the probe's world directions and hit
         distances when already cast (with the ping's rays)."""
         if dist is None:
-            dirs = self._probe_local @ R.T
+            dirs = self._probe_local @ np.ascontiguousarray(R.T)
             dist = self.mount.backend.cast(data, origin, dirs, self.config.max_range).dist
         ok = dist <= self.config.max_range  # inf (no hit) fails too
         h = np.sort(-dirs[ok, 2] * dist[ok])
@@ -128,30 +135,35 @@ class SideScanSonar:
         # the median as np.median computes it (mean of the middle two for even k)
         return float(h[k // 2]) if k % 2 else float((h[k // 2 - 1] + h[k // 2]) / 2.0)
 
-    def _cast_ping(self, data, origin, R) -> tuple[float, RayFan, np.ndarray, RayHits]:
-        """Altitude (m), the ping's fan, its world directions (N, 3) and its hits. The
-        nadir probe is cast in one batch with the cached fan's rays; the fan is cast again
-        only when the probe's altitude selects another fan (each ray's hit does not depend
-        on the batch, so the result equals probing first and casting the fan after)."""
+    def _cast_ping(self, data, origin, R):
+        """Altitude (m), the ping's fan, its world directions (N, 3) and ∂d/∂θ·Δθ (N, 3)
+        and its hits. The nadir probe is cast in one batch with the cached fan's rays;
+        the fan is cast again only when the probe's altitude selects another fan (each
+        ray's hit does not depend on the batch, so the result equals probing first and
+        casting the fan after). ``fan.local @ R.T`` rotates rays, probe and derivatives
+        in one product (a contiguous Rᵀ: OpenBLAS's fast path, the same bytes)."""
         m = self.mount
+        Rt = np.ascontiguousarray(R.T)
         prev = self._fan_cache[1] if self._fan_cache is not None else None
         n_p = self._probe_local.shape[0]
         if prev is None:
             altitude = self._altitude(data, origin, R)
         else:
             n = prev.directions.shape[0]
-            both = np.empty((n + n_p, 3))
-            np.matmul(prev.directions, R.T, out=both[:n])
-            np.matmul(self._probe_local, R.T, out=both[n:])
+            world = prev.local @ Rt
+            both = world[: n + n_p]
             h = m.backend.cast(data, origin, both, m.cutoff, prev.cones.rotated(R))
             altitude = self._altitude(data, origin, R, both[n:], h.dist[n:])
         fan = self.ray_fan(altitude)
         if fan is prev:
             hits = RayHits(h.dist[:n], h.geom[:n], h.normal[:n])
-            return altitude, fan, both[:n], hits
-        dirs = fan.directions @ R.T
-        cones = replace(fan.cones.rotated(R), n=dirs.shape[0])
-        return altitude, fan, dirs, m.backend.cast(data, origin, dirs, m.cutoff, cones)
+            return altitude, fan, world[:n], world[n + n_p :], hits
+        n = fan.directions.shape[0]
+        world = fan.local @ Rt
+        dirs = world[:n]
+        cones = replace(fan.cones.rotated(R), n=n)
+        hits = m.backend.cast(data, origin, dirs, m.cutoff, cones)
+        return altitude, fan, dirs, world[n + n_p :], hits
 
     def depression_angles(self, altitude: float) -> tuple[np.ndarray, np.ndarray]:
         """Depression angles θ (rad) of the rays of one fan and their angular widths Δθ.
@@ -188,14 +200,22 @@ class SideScanSonar:
         parts = [self._fan(theta, dtheta, s) for s in (1.0, -1.0)]
         d_loc = np.concatenate([parts[0][0], parts[1][0]])
         nt = theta.size
-        j = np.arange(d_loc.shape[0])
+        n = d_loc.shape[0]
+        j = np.arange(n)
+        local = np.concatenate([d_loc, self._probe_local, parts[0][1], parts[1][1]])
         fan = RayFan(
-            directions=d_loc,
-            d_directions=np.concatenate([parts[0][1], parts[1][1]]),
+            local=local,
+            directions=local[:n],
+            d_directions=local[n + self._probe_local.shape[0] :],
             gain=np.concatenate([parts[0][2], parts[1][2]]),
             rows=np.repeat(np.array([0, 1], np.int64), parts[0][0].shape[0]),
             neighbours=(j % nt < nt - 1)[:-1],
             cones=ray_cones(np.concatenate([d_loc, self._probe_local])),
+            side_cones=(
+                None
+                if self.mount.site_ids[0] == self.mount.site_ids[1]
+                else (ray_cones(d_loc[: n // 2]), ray_cones(d_loc[n // 2 :]))
+            ),
         )
         self._fan_cache = (key, fan)
         return fan
@@ -247,14 +267,14 @@ class SideScanSonar:
         p_port, R = m.pose(data, m.site_ids[0])
         p_stbd, _ = m.pose(data, m.site_ids[1])
         if m.site_ids[0] == m.site_ids[1]:
-            altitude, fan, dirs, hits = self._cast_ping(data, p_port, R)
+            altitude, fan, dirs, d_dirs, hits = self._cast_ping(data, p_port, R)
         else:
             altitude = self._altitude(data, p_port, R)
             fan = self.ray_fan(altitude)
-            dirs = fan.directions @ R.T
-        dd_loc, gain, rows, nbrs = fan.d_directions, fan.gain, fan.rows, fan.neighbours
+            Rt = np.ascontiguousarray(R.T)
+            dirs, d_dirs = fan.directions @ Rt, fan.d_directions @ Rt
+        gain, rows, nbrs = fan.gain, fan.rows, fan.neighbours
         n_side = dirs.shape[0] // 2
-        d_dirs = dd_loc @ R.T
         if m.site_ids[0] == m.site_ids[1]:
             echo = form_echo(
                 hits,
@@ -283,7 +303,7 @@ class SideScanSonar:
             out = []
             for k, p in enumerate((p_port, p_stbd)):
                 sl = slice(k * n_side, (k + 1) * n_side)
-                h = m.backend.cast(data, p, dirs[sl], m.cutoff)
+                h = m.backend.cast(data, p, dirs[sl], m.cutoff, fan.side_cones[k].rotated(R))
                 out.append(
                     form_echo(
                         h,

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim.sonar.echo import _splat_energy
-from sim.sonar.echo_kernels import label_cells
+from sim.sonar.echo_image import label_cells
 
 
 @settings(max_examples=50, deadline=None)
@@ -38,15 +38,15 @@ def test_box_splat_equals_bruteforce_overlap(seed, n):
 def test_label_cells_follow_the_covering_spans(seed):
     """Brute force: cell k of row r is 0 when a seabed background footprint's cell span
     [floor(a), ceil(b)) of that row contains it, else −2 when an unlabelled geom's does,
-    else −1; object (label ≥ 1) and non-background footprints label nothing."""
+    else −1; object (label ≥ 1) and missed (−1) footprints label nothing."""
     rng = np.random.default_rng(seed)
     n = 60
     a = rng.uniform(-3.0, 32.0, n)
     b = a + rng.uniform(0.0, 8.0, n)
     rows = rng.integers(0, 2, n)
-    lab = rng.choice(np.array([0, -2, 3], np.int32), n)
-    bg = (lab != 3) & (rng.uniform(size=n) < 0.9)
-    labels, start, end = label_cells(rows, a, b, bg, lab, 2, 30)
+    lab = rng.choice(np.array([0, -2, 3, -1], np.int32), n)
+    bg = (lab == 0) | (lab == -2)
+    labels, start, end = label_cells(rows, a, b, lab, 2, 30)
     s = np.clip(np.floor(a), 0, 30).astype(int)
     e = np.clip(np.ceil(b), 0, 30).astype(int)
     np.testing.assert_array_equal(start, s)
@@ -66,8 +66,10 @@ def test_form_echo_same_bytes_as_the_array_version():
     """Second implementation: on side-scan and forward-looking fans over a rolling seabed
     with static objects and a moving box (background, objects, vehicle-free hits, wide
     sub-boxed footprints, neighbour links), the compiled scatters give the same mean,
-    labels and hit positions, byte for byte, as the array version they replaced; the FLS
-    layout (``bins_first``) is the transpose of the same positions."""
+    labels and hit positions, byte for byte, as the array version they replaced — also
+    with the realistic preset's sediment seabed, facet glint and object gain, and
+    without neighbour links; the FLS layout (``bins_first``) is the transpose of the
+    same positions."""
     import sys
     from pathlib import Path
 
@@ -117,6 +119,11 @@ def test_form_echo_same_bytes_as_the_array_version():
             fan.neighbours,
         )
     ]
+    rz = SideScanSonar(preset("deepeye680d_realistic"), m, d, sc.sites["sss"], *args).mount
+    assert rz.seabed is not None and rz.object_specular is not None
+    realistic = (rz.seabed, rz.object_specular, 2.0)  # object gain ≠ 1: its branch too
+    cases.append((*cases[0][:10], *common, fan.neighbours, *realistic))
+    cases.append((*cases[0][:10], *common, None))  # no links: the −3/r slope of wide boxes
     fm = fls.mount
     pf, Rf = fm.pose(d, sc.sites["fls"])
     df, ddf = fls._d_local @ Rf.T, fls._dd_local @ Rf.T
@@ -151,3 +158,45 @@ def test_form_echo_same_bytes_as_the_array_version():
         assert new.hit_position.tobytes() == old.hit_position.tobytes()
         t = form_echo(*case, bins_first=True).hit_position
         assert t.tobytes() == np.ascontiguousarray(old.hit_position.transpose(1, 0, 2)).tobytes()
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), kind=st.sampled_from(["mixed", "objects", "misses"]))
+def test_form_echo_same_bytes_on_synthetic_fans(seed, kind):
+    """Second implementation (legacy_echo): random two-row fans whose hits are a mix of
+    seabed, objects, unlabelled geoms and misses — or only objects (no background
+    footprint centre anywhere), or only misses — give the same bytes, in both layouts."""
+    import sys
+    from pathlib import Path
+
+    from sim.sonar.echo import form_echo
+    from sim.sonar.rays import RayHits
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "helpers"))
+    from legacy_echo import form_echo as legacy_form_echo
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 200))
+    dirs = rng.normal(size=(n, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    normal = rng.normal(size=(n, 3))
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    d_dirs = 0.01 * rng.normal(size=(n, 3))
+    geom_object_id = np.array([0, 2, 5, -1], np.int32)  # seabed, two objects, unlabelled
+    pick = {"mixed": [-1, 0, 1, 2, 3], "objects": [1, 2], "misses": [-1]}[kind]
+    geom = rng.choice(np.array(pick, np.int32), n)
+    dist = np.where(geom >= 0, rng.uniform(0.5, 30.0, n), np.inf)
+    hits = RayHits(dist, geom, np.where(geom[:, None] >= 0, normal, 0.0))
+    rows = np.sort(rng.integers(0, 2, n))
+    case = (
+        hits, np.array([1.0, -2.0, 3.0]), dirs, d_dirs, rng.uniform(1e3, 1e6, n), rows, 2, 60,
+        0.5, 0.5, geom_object_id, np.array([1.0, 0.7, 0.9, 0.5]), 0.1, (10.0, 0.2), 1.0,
+        rng.uniform(size=n - 1) < 0.8,
+    )  # fmt: skip
+    old = legacy_form_echo(*case)
+    new = form_echo(*case)
+    for x, y in ((new.mean, old.mean), (new.labels, old.labels)):
+        assert x.tobytes() == y.tobytes()
+    assert new.hit_position.tobytes() == old.hit_position.tobytes()
+    t = form_echo(*case, bins_first=True).hit_position
+    assert t.tobytes() == np.ascontiguousarray(old.hit_position.transpose(1, 0, 2)).tobytes()

@@ -180,6 +180,20 @@ def test_seeded_runs_are_bit_identical(box_scene):
     assert a.intensity.tobytes() != c.intensity.tobytes()
 
 
+def test_one_rotation_of_the_stacked_fan_equals_separate_products(box_scene):
+    """Second formulation: the ping rotates its fan, probe and derivatives with one product
+    of the stacked local array; the world directions and derivatives are the same bytes
+    as ``fan.directions @ R.T`` and ``fan.d_directions @ R.T`` taken apart, for the
+    first ping (fan built after the probe) and a cached-fan ping."""
+    son = _sonar(box_scene)
+    d = box_scene.data
+    p, R = son.mount.pose(d, son.mount.site_ids[0])
+    for _ in range(2):
+        _, fan, dirs, d_dirs, _ = son._cast_ping(d, p, R)
+        assert dirs.tobytes() == (fan.directions @ R.T).tobytes()
+        assert d_dirs.tobytes() == (fan.d_directions @ R.T).tobytes()
+
+
 def test_label_centroid_maps_back_to_object_position():
     """Ground truth: the labelled samples of a small sphere, over a survey line, have hit
     positions whose centroid lies within (radius + one bin + ping spacing) of its centre."""
@@ -476,3 +490,32 @@ def test_probe_batched_with_the_cached_fan_gives_the_same_pings():
         seen |= bool((pa.labels >= 1).any())
         alts.add(round(pa.altitude, 1))
     assert seen and len(alts) >= 3  # the box was imaged; the fan was rebuilt
+
+
+def _scene_args(sc):
+    """geom_object_id, geom_reflectivity, water of a scene (SideScanSonar arguments)."""
+    return sc.geom_object_id, sc.geom_reflectivity, sc.water
+
+
+def test_two_site_side_cones_find_the_same_hits_as_no_cones():
+    """Second formulation: each side of a two-site sonar is cast with its own bounding
+    cones (a hint restricting the moving-body test); the hits are the bytes of the same
+    cast without cones, and moving boxes on both sides are hit (the test can fail)."""
+    objs = [
+        SceneObject("box", (0.0, 12.0, 0.8), (1.0, 1.0, 0.8), moving=True),
+        SceneObject("box", (0.0, -12.0, 0.8), (1.0, 1.0, 0.8), moving=True),
+    ]
+    sc = build_scene(altitude=10.0, objects=objs, seabed_cells=20)
+    sites = (sc.sites["sss_port"], sc.sites["sss_starboard"])
+    son = SideScanSonar(preset("deepeye680d"), sc.model, sc.data, sites, *_scene_args(sc))
+    fan = son.ray_fan(10.0)
+    n_side = fan.directions.shape[0] // 2
+    mt = son.mount
+    for k, site in enumerate(mt.site_ids):
+        p, R = mt.pose(sc.data, site)
+        dirs = fan.directions[k * n_side : (k + 1) * n_side] @ R.T
+        h1 = mt.backend.cast(sc.data, p, dirs, mt.cutoff, fan.side_cones[k].rotated(R))
+        h2 = mt.backend.cast(sc.data, p, dirs, mt.cutoff)
+        for x, y in ((h1.dist, h2.dist), (h1.geom, h2.geom), (h1.normal, h2.normal)):
+            assert x.tobytes() == y.tobytes()
+        assert (sc.geom_object_id[h1.geom[h1.geom >= 0]] >= 1).any()
