@@ -114,6 +114,16 @@ def warm(group: str, verbose: bool = False) -> None:
             )
 
 
+def _cached(dec: ast.expr) -> bool:
+    """``@numba.njit(cache=True)`` / ``@njit(cache=True)``, not ``inline="always"``
+    (inlined into its callers, no cache entry of its own)."""
+    if not isinstance(dec, ast.Call):
+        return False
+    name = dec.func.attr if isinstance(dec.func, ast.Attribute) else getattr(dec.func, "id", "")
+    kw = {k.arg: getattr(k.value, "value", None) for k in dec.keywords}
+    return name == "njit" and kw.get("cache") is True and "inline" not in kw
+
+
 def kernel_functions(repo: Path) -> list[tuple[Path, str, int]]:
     """(source file, function name, decorator line) of every ``numba.njit(cache=True)``
     function under ``sim/`` and ``slam/`` (read with ``ast``, nothing imported)."""
@@ -125,10 +135,9 @@ def kernel_functions(repo: Path) -> list[tuple[Path, str, int]]:
                 continue
             for node in ast.walk(ast.parse(text)):
                 if isinstance(node, ast.FunctionDef):
-                    for dec in node.decorator_list:
-                        src = ast.get_source_segment(text, dec) or ""
-                        if "njit(cache=True" in src and "inline" not in src:
-                            found.append((path, node.name, dec.lineno))
+                    found += [
+                        (path, node.name, d.lineno) for d in node.decorator_list if _cached(d)
+                    ]
     return found
 
 
