@@ -1,10 +1,11 @@
 """Shared fixtures. ``shared_data`` points at ../shared/data (the full real-data sets),
 and skips with a clear message when a clone has no ../shared beside it.
 
-With pytest-xdist (``-n 2``, the default), the controller fills numba's on-disk cache
-before the workers start when any kernel is not cached yet (tests/helpers/numba_warmup.py;
-``UNDERSEA_NUMBA_WARMUP=0`` turns it off), so the workers and the processes their tests
-start load the compiled kernels instead of each compiling them."""
+With ``UNDERSEA_NUMBA_WARMUP=1`` and pytest-xdist (``-n 2``, the default), the
+controller fills numba's on-disk cache before the workers start when any kernel is not
+cached yet (tests/helpers/numba_warmup.py), so the workers and the processes their tests
+start load the compiled kernels instead of each compiling them. Off by default: on the
+files measured it cost more CPU than it saved (docs/test-suite.md)."""
 
 from __future__ import annotations
 
@@ -33,12 +34,13 @@ def _is_xdist_controller(config) -> bool:
 
 
 def pytest_configure(config):
-    """xdist controller: compile the cold numba kernels once, in two processes, before
-    the workers start (a warm cache costs one read of each kernel's cache index)."""
+    """xdist controller, ``UNDERSEA_NUMBA_WARMUP=1``: compile the cold numba kernels
+    once, in two processes, before the workers start (a warm cache costs one read of
+    each kernel's cache index)."""
     if (
-        not _is_xdist_controller(config)
+        os.environ.get("UNDERSEA_NUMBA_WARMUP") != "1"
+        or not _is_xdist_controller(config)
         or config.option.collectonly
-        or os.environ.get("UNDERSEA_NUMBA_WARMUP", "1") == "0"
     ):
         return
     cold = numba_warmup.cold_kernels(REPO)
