@@ -237,7 +237,12 @@ class HydroBatch:
         f64 = np.float64
 
         def arr(a, shape):
-            return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=f64), shape))
+            # always a writable C array: numba compiles one specialisation per
+            # read-only/writable combination, and broadcast_to views are read-only
+            a = np.asarray(a, dtype=f64)
+            if a.shape == shape and a.flags.c_contiguous and a.flags.writeable:
+                return a
+            return np.array(np.broadcast_to(a, shape), order="C")
 
         cur = np.zeros((n, 3)) if current_world is None else arr(current_world, (n, 3))
         if thrusters is None:

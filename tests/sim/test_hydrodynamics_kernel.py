@@ -110,3 +110,28 @@ def test_world_step_follows_the_numpy_step_to_1e9(current):
     np.testing.assert_allclose(a.data.qvel, b.data.qvel, rtol=0, atol=1e-9)
     np.testing.assert_allclose(a.thrusters.level, b.thrusters.level, rtol=0, atol=1e-12)
     np.testing.assert_allclose(a.hydro.last_accel, ref.last_accel, rtol=1e-9, atol=1e-9)
+
+
+def test_body_wrench_compiles_one_specialisation_for_any_input_layout():
+    """Read-only broadcast views, exact-shape writable arrays and per-vehicle rows all
+    reach the kernel as writable C arrays, so numba compiles it once per process (a
+    read-only argument is a different numba type and would compile another version)."""
+    from numba import types
+
+    from sim.physics_kernel import wrench_batch
+
+    rng = np.random.default_rng(5)
+    n = 2
+    hb = HydroBatch(random_hydro_params(rng, n), RHO, 9.81, 0.0)
+    rot = np.broadcast_to(np.eye(3), (n, 3, 3))  # read-only view
+    inputs = [
+        (rot, np.zeros(3), np.ones((n, 3)), np.zeros(3), None, np.zeros(6)),
+        (np.ascontiguousarray(rot), np.zeros((n, 3)), [0.5, 0.0, 0.0], np.zeros((n, 3)),
+         np.zeros(3), np.zeros((n, 6))),
+    ]  # fmt: skip
+    before = len(wrench_batch.signatures)
+    outs = [hb.body_wrench(*a) for a in inputs]
+    assert all(np.isfinite(o).all() for o in outs)
+    assert len(wrench_batch.signatures) - before <= 1
+    arrays = [t for sig in wrench_batch.signatures for t in sig if isinstance(t, types.Array)]
+    assert arrays and all(t.mutable for t in arrays)
