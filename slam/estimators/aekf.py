@@ -53,6 +53,7 @@ from slam.estimators.aekf_kernels import (
     cov_status,
     downdate,
     ekf_gain,
+    jcbb_outcome,
     obs_status,
     odo_status,
     predict_inplace,
@@ -877,16 +878,7 @@ class AEKFSlam:
         if cfg.association == "jcbb":
             jc = jcbb(self.x, self.P, z, R, confidence=cfg.jcbb_confidence)
             idx = jc.pairs
-            scores = jc.nis
-            new = (
-                (idx < 0)
-                & ~jc.ambiguous
-                & ((scores > cfg.augment_gate).all(axis=1) if n else np.ones(k, dtype=bool))
-            )
-            nis = np.full(k, np.nan)
-            m = idx >= 0
-            nis[m] = scores[np.flatnonzero(m), idx[m]]
-            compatible = (scores < cfg.augment_gate).any(axis=0) if n else None
+            new, nis, compatible = jcbb_outcome(jc.nis, idx, jc.ambiguous, cfg.augment_gate)
         elif cfg.association == "known":
             idx, new = self._associate_known(labels)
             nis = np.full(k, np.nan)
@@ -911,19 +903,7 @@ class AEKFSlam:
             compatible = (scores < cfg.augment_gate).any(axis=0)
         known = idx >= 0
         if known.any():
-            update(
-                self.x,
-                self.P,
-                z[known],
-                R[known],
-                idx[known],
-                x_lin=x_lin,
-                batch=cfg.batch,
-                joseph=cfg.joseph,
-                iterations=cfg.iterations,
-                relinearize_gate=cfg.relinearize_gate,
-                inplace=True,
-            )
+            self._update_known(z[known], R[known], idx[known], x_lin)
         assoc = idx.copy()
         if new.any():
             m = int(new.sum())
@@ -940,6 +920,19 @@ class AEKFSlam:
             self.hits[idx[known]] += 1
         assoc = self._end_of_scan(assoc, compatible)
         return UpdateResult(assoc, new, nis)
+
+    def _update_known(self, z, R, idx, x_lin) -> None:
+        """:func:`update` of the filter's own state in place with the scan's associated
+        observations (validated C-contiguous arrays: straight to the compiled steps)."""
+        cfg = self.config
+        self.x, self.P = _work(self.x, True), _work(self.P, True)
+        xl = self.x if x_lin is None else x_lin
+        args = (xl, cfg.joseph, cfg.iterations, cfg.relinearize_gate)
+        if cfg.batch:
+            _update_block(self.x, self.P, z, R, idx, *args)
+        else:
+            for j in range(idx.size):
+                _update_block(self.x, self.P, z[j : j + 1], R[j : j + 1], idx[j : j + 1], *args)
 
     def pose(self) -> tuple[np.ndarray, np.ndarray]:
         return self.x[:3].copy(), self.P[:3, :3].copy()

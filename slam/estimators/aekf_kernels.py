@@ -27,6 +27,7 @@ __all__ = [
     "cov_status",
     "downdate",
     "ekf_gain",
+    "jcbb_outcome",
     "obs_status",
     "odo_status",
     "predict_inplace",
@@ -317,6 +318,31 @@ def surely_linear(x0, step, idx, R, gate):
         e_b = e_r / r_min
         total += (e_r * e_r + e_b * e_b) / lam
     return total <= gate
+
+
+@numba.njit(cache=True)
+def jcbb_outcome(scores, pairs, ambiguous, augment_gate):
+    """From a JCBB result — ``scores`` (k, n) individual NIS, ``pairs`` (k,) landmark or
+    -1, ``ambiguous`` (k,) — the filter's ``new`` (k,) (unpaired, not ambiguous, NIS above
+    ``augment_gate`` for every landmark), ``nis`` (k,) of each pair (NaN unpaired) and
+    ``compatible`` (n,) (some observation's NIS below ``augment_gate``)."""
+    k, n = scores.shape
+    new = np.zeros(k, np.bool_)
+    nis = np.full(k, np.nan)
+    compatible = np.zeros(n, np.bool_)
+    for j in range(k):
+        far = True
+        for i in range(n):
+            v = scores[j, i]
+            if not v > augment_gate:
+                far = False
+            if v < augment_gate:
+                compatible[i] = True
+        if pairs[j] >= 0:
+            nis[j] = scores[j, pairs[j]]
+        else:
+            new[j] = far and not ambiguous[j]
+    return new, nis, compatible
 
 
 @numba.njit(cache=True)

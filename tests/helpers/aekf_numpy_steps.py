@@ -131,3 +131,12 @@ def joint_nis(S, nu, rows):
         return -1.0
     w = np.linalg.solve(L, nu[rows])
     return float(w @ w)
+
+
+def jcbb_outcome(scores, pairs, ambiguous, augment_gate):
+    k, n = scores.shape
+    new = (pairs < 0) & ~ambiguous & ((scores > augment_gate).all(axis=1) if n else True)
+    nis = np.full(k, np.nan)
+    m = pairs >= 0
+    nis[m] = scores[np.flatnonzero(m), pairs[m]]
+    return new, nis, (scores < augment_gate).any(axis=0)

@@ -129,6 +129,21 @@ def test_pair_covariance_and_joint_nis_equal_numpy(rng):
             assert d2 == pytest.approx(d2_ref, rel=1e-9, abs=1e-12)
 
 
+def test_jcbb_outcome_equals_numpy(rng):
+    for _ in range(200):
+        k, n = int(rng.integers(1, 6)), int(rng.integers(0, 30))
+        scores = rng.exponential(20.0, (k, n))
+        if n and rng.random() < 0.2:
+            scores[0, 0] = 25.0  # exactly at the gate
+        pairs = np.where(rng.random(k) < 0.5, rng.integers(0, max(n, 1), k), -1)
+        pairs = np.where(n > 0, pairs, -1).astype(np.intp)
+        ambiguous = rng.random(k) < 0.2
+        got = K.jcbb_outcome(scores, pairs, ambiguous, 25.0)
+        want = ref.jcbb_outcome(scores, pairs, ambiguous, 25.0)
+        for g, w in zip(got, want, strict=True):
+            np.testing.assert_array_equal(g, w)
+
+
 def _eig_rule_rejects(C, tol=1e-9):
     """The replaced rule: symmetric part's smallest eigenvalue below -tol * scale."""
     scale = max(1.0, float(np.abs(C).max()))
@@ -212,6 +227,7 @@ def test_dense_loop_equals_numpy_formulation_and_repeats_bit_identically(monkeyp
         (aekf_mod, "add_step"),
         (aekf_mod, "downdate"),
         (aekf_mod, "surely_linear"),
+        (aekf_mod, "jcbb_outcome"),
         (rb_mod, "nis_scores"),
         (jcbb_mod, "pair_covariance"),
         (jcbb_mod, "joint_nis"),
