@@ -20,6 +20,8 @@ import math
 import numba
 import numpy as np
 
+from slam.estimators.rb_kernels import landmark_jacobian, wrap_angle
+
 __all__ = [
     "OK",
     "add_step",
@@ -39,11 +41,6 @@ _TWO_PI = 2.0 * math.pi
 #: status codes of :func:`cov_status` / :func:`obs_status` (0: valid)
 OK = 0
 NON_FINITE, NEGATIVE_VARIANCE, ASYMMETRIC, NOT_PSD, NOT_PD, BAD_Z = 1, 2, 3, 4, 5, 6
-
-
-@numba.njit(cache=True, inline="always")
-def _wrap(a):
-    return (a + math.pi) % _TWO_PI - math.pi
 
 
 @numba.njit(cache=True)
@@ -186,7 +183,7 @@ def predict_inplace(x, P, u, Q, ref):
             v = F[i, 0] * p0 + F[i, 1] * p1 + F[i, 2] * p2
             P[i, col] = v
             P[col, i] = v
-    x[0], x[1], x[2] = xn, yn, _wrap(phi + u[2])
+    x[0], x[1], x[2] = xn, yn, wrap_angle(phi + u[2])
 
 
 @numba.njit(cache=True)
@@ -197,12 +194,8 @@ def _rows_H(x, xl, idx, Hv, Hm, y, z):
         c = 3 + 2 * idx[j]
         dx, dy = x[c] - x[0], x[c + 1] - x[1]
         y[2 * j] = z[j, 0] - math.hypot(dx, dy)
-        y[2 * j + 1] = _wrap(z[j, 1] - _wrap(math.atan2(dy, dx) - x[2]))
-        dx, dy = xl[c] - xl[0], xl[c + 1] - xl[1]
-        q = dx * dx + dy * dy
-        r = math.sqrt(q)
-        Hm[j, 0, 0], Hm[j, 0, 1] = dx / r, dy / r
-        Hm[j, 1, 0], Hm[j, 1, 1] = -dy / q, dx / q
+        y[2 * j + 1] = wrap_angle(z[j, 1] - wrap_angle(math.atan2(dy, dx) - x[2]))
+        Hm[j, 0, 0], Hm[j, 0, 1], Hm[j, 1, 0], Hm[j, 1, 1] = landmark_jacobian(xl, idx[j])
         Hv[j, 0, 0], Hv[j, 0, 1], Hv[j, 0, 2] = -Hm[j, 0, 0], -Hm[j, 0, 1], 0.0
         Hv[j, 1, 0], Hv[j, 1, 1], Hv[j, 1, 2] = -Hm[j, 1, 0], -Hm[j, 1, 1], -1.0
 
@@ -280,7 +273,7 @@ def add_step(x, step):
     """``x += step`` in place, heading ``x[2]`` wrapped to [-pi, pi)."""
     for n in range(x.size):
         x[n] += step[n]
-    x[2] = _wrap(x[2])
+    x[2] = wrap_angle(x[2])
 
 
 @numba.njit(cache=True)

@@ -11,20 +11,21 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["joint_nis", "nis_scores", "pair_covariance"]
+__all__ = ["joint_nis", "landmark_jacobian", "nis_scores", "pair_covariance", "wrap_angle"]
 
 _TWO_PI = 2.0 * math.pi
 
 
 @numba.njit(cache=True, inline="always")
-def _wrap(a):
+def wrap_angle(a):
+    """Angle wrapped to [-pi, pi) (rad), as ``rb_model.wrap``."""
     return (a + math.pi) % _TWO_PI - math.pi
 
 
 @numba.njit(cache=True, inline="always")
-def _jac(xl, i):
-    """Non-zero Jacobian blocks of landmark i at state ``xl``: Hm (2, 2) entries and
-    the vehicle block ``Hv = [-Hm | (0, -1)ᵀ]``."""
+def landmark_jacobian(xl, i):
+    """Non-zero Jacobian block ``Hm`` (2, 2) of landmark i at state ``xl`` as its entries
+    ``(m00, m01, m10, m11)``; the vehicle block is ``Hv = [-Hm | (0, -1)ᵀ]``."""
     c = 3 + 2 * i
     dx, dy = xl[c] - xl[0], xl[c + 1] - xl[1]
     q = dx * dx + dy * dy
@@ -74,8 +75,8 @@ def nis_scores(x, P, z, R, xl, ml):
         c = 3 + 2 * i
         dx, dy = x[c] - x[0], x[c + 1] - x[1]
         zr = math.hypot(dx, dy)
-        zb = _wrap(math.atan2(dy, dx) - x[2])
-        m00, m01, m10, m11 = _jac(xl, i)
+        zb = wrap_angle(math.atan2(dy, dx) - x[2])
+        m00, m01, m10, m11 = landmark_jacobian(xl, i)
         s00, s01, s10, s11 = _landmark_S0(P, i, m00, m01, m10, m11)
         for j in range(k):
             a = s00 + R[j, 0, 0]
@@ -83,7 +84,7 @@ def nis_scores(x, P, z, R, xl, ml):
             d = s11 + R[j, 1, 1]
             det = a * d - b * b
             y0 = z[j, 0] - zr
-            y1 = _wrap(z[j, 1] - zb)
+            y1 = wrap_angle(z[j, 1] - zb)
             v = (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / det
             nis[j, i] = v
             if ml:
@@ -104,8 +105,8 @@ def pair_covariance(x, P, z, R, obs, lms):
         ci = 3 + 2 * i
         dx, dy = x[ci] - x[0], x[ci + 1] - x[1]
         nu[2 * a] = z[obs[a], 0] - math.hypot(dx, dy)
-        nu[2 * a + 1] = _wrap(z[obs[a], 1] - _wrap(math.atan2(dy, dx) - x[2]))
-        m00, m01, m10, m11 = _jac(x, i)
+        nu[2 * a + 1] = wrap_angle(z[obs[a], 1] - wrap_angle(math.atan2(dy, dx) - x[2]))
+        m00, m01, m10, m11 = landmark_jacobian(x, i)
         H[a, 0, 0], H[a, 0, 1], H[a, 0, 3], H[a, 0, 4] = -m00, -m01, m00, m01
         H[a, 1, 0], H[a, 1, 1], H[a, 1, 2], H[a, 1, 3], H[a, 1, 4] = -m10, -m11, -1.0, m10, m11
         cols[a, 0], cols[a, 1], cols[a, 2], cols[a, 3], cols[a, 4] = 0, 1, 2, ci, ci + 1
