@@ -18,6 +18,14 @@
    in the same run, and the Octave / AEKF time ratio (target >= 25). Without Octave or the
    code, the output says which is missing.
 
+5. Issue 16's "consistent preset ≤ reference preset" in two readings, CPU time of the
+   estimator loop per dense-loop run, both in this one run: (a) consistent / reference
+   of this tree; (b) with ``--against TREE`` (another checkout, e.g. the round's start
+   ``git worktree add /tmp/aekfpre f591a7e``), this tree's consistent preset / that
+   tree's reference preset, run by that tree's own code in a subprocess right after this
+   tree's runs, on the same seeds and data. Both printed beside the goal (≤ 1) with the
+   load average.
+
 BLAS is limited to one thread (the filters' small matrices only lose from threads on a
 shared 2-core machine); ``--blas-threads`` changes that for the scaling part.
 """
@@ -29,6 +37,7 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -159,6 +168,26 @@ def _octave_bailey(bailey_dir: str | None, timeout_s: float = 900.0) -> dict:
             f = line.split()
             return {"time_s": float(f[1]), "control_steps": int(f[3]), "octave": octave}
     return {"error": f"Octave failed (exit {r.returncode}): {r.stderr.strip()[-300:]}"}
+
+
+def _reference_cpu_in(tree: str, runs: int) -> list[float]:
+    """CPU seconds per dense-loop run of the reference-preset AEKF as another checkout's
+    own code runs it (a subprocess with ``tree`` first on the path; same seeds, so the same
+    simulated data)."""
+    code = (
+        "import json\n"
+        "from slam.experiments import get_experiment, run_once\n"
+        "spec = get_experiment('dense-loop')\n"
+        f"print(json.dumps([run_once(spec, 'aekf', r, {{'preset': 'reference'}}).cpu_s "
+        f"for r in range({runs})]))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": tree}
+    r = subprocess.run(
+        [sys.executable, "-c", code], cwd=tree, env=env, capture_output=True, text=True
+    )
+    if r.returncode != 0:
+        raise SystemExit(f"--against {tree}: its AEKF run failed:\n{r.stderr[-2000:]}")
+    return [float(v) for v in json.loads(r.stdout.strip().splitlines()[-1])]
 
 
 def _cpu_ratio(d: dict) -> float:
@@ -300,16 +329,40 @@ def main(argv=None) -> int:
     p.add_argument("--submap-size", type=int, default=100, help="landmarks per local map")
     p.add_argument("--submap-full", action="store_true", help="also run the full AEKF on it")
     p.add_argument(
+        "--against",
+        default=None,
+        metavar="TREE",
+        help="another checkout (e.g. the round's start): its reference preset's CPU time "
+        "per dense-loop run, for reading (b) consistent (this tree) / reference (TREE)",
+    )
+    p.add_argument(
         "--bailey-dir",
         default=os.environ.get("UNDERSEA_BAILEY_DIR"),
         help="directory of Bailey's ekfslam_v1 for the Octave comparison",
     )
     args = p.parse_args(argv)
+    if args.against is not None and not os.path.isdir(os.path.join(args.against, "slam")):
+        print(
+            f"--against {args.against!r}: not a checkout of this project (no slam/)",
+            file=sys.stderr,
+        )
+        return 2
     from threadpoolctl import threadpool_limits
 
     sizes = [int(s) for s in args.sizes.split(",") if s]
     load_start = os.getloadavg()
     result = {"dense_loop": _dense_loop_times(args.runs, args.skip_fastslam, args.skip_isam2)}
+    d = result["dense_loop"]
+    if args.against is not None and "cpu_s_mean" in d["estimators"].get("aekf-consistent", {}):
+        ref_cpu = _reference_cpu_in(args.against, args.runs)
+        d["against"] = {
+            "tree": os.path.abspath(args.against),
+            "reference_cpu_s": ref_cpu,
+            "ratio_consistent_over_against_reference_cpu": d["estimators"]["aekf-consistent"][
+                "cpu_s_mean"
+            ]
+            / float(np.mean(ref_cpu)),
+        }
     oct_ = _octave_bailey(args.bailey_dir)
     if "time_s" in oct_:
         oct_["ratio_over_aekf"] = (
@@ -349,11 +402,20 @@ def main(argv=None) -> int:
     if "ratio_isam2_over_aekf" in d:
         print(f"  iSAM2 / AEKF time ratio {d['ratio_isam2_over_aekf']:.1f} wall")
     if "ratio_consistent_over_reference_cpu" in d:
+        la = os.getloadavg()[0]
         print(
-            f"  AEKF consistent / reference preset: {d['ratio_consistent_over_reference_cpu']:.2f}x "
-            f"CPU (goal <= {d['goal_consistent_over_reference']:.1f}; load average "
-            f"{os.getloadavg()[0]:.1f})"
+            f"  (a) AEKF consistent / reference preset, this tree: "
+            f"{d['ratio_consistent_over_reference_cpu']:.2f}x CPU "
+            f"(goal <= {d['goal_consistent_over_reference']:.1f}; load average {la:.1f})"
         )
+        if "against" in d:
+            ag = d["against"]
+            print(
+                f"  (b) AEKF consistent (this tree, {d['estimators']['aekf-consistent']['cpu_s_mean']:.3f} s) "
+                f"/ reference preset of {ag['tree']} ({np.mean(ag['reference_cpu_s']):.3f} s): "
+                f"{ag['ratio_consistent_over_against_reference_cpu']:.2f}x CPU "
+                f"(goal <= {d['goal_consistent_over_reference']:.1f}; load average {la:.1f})"
+            )
     ob = result["octave_bailey_ekfslam_v1"]
     if "time_s" in ob:
         print(

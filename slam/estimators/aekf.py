@@ -46,7 +46,19 @@ import numpy as np
 from scipy.linalg import blas as _blas
 from scipy.linalg import lapack as _lapack
 
-from slam.estimators.aekf_kernels import count_misses
+from slam.estimators.aekf_kernels import (
+    OK,
+    add_step,
+    count_misses,
+    cov_status,
+    downdate,
+    ekf_gain,
+    jcbb_outcome,
+    obs_status,
+    odo_status,
+    predict_inplace,
+    surely_linear,
+)
 from slam.estimators.base import UpdateResult
 from slam.estimators.jcbb import jcbb
 from slam.estimators.rb_model import association_scores, observe
@@ -70,6 +82,9 @@ __all__ = [
 ]
 
 _TWO_PI = 2.0 * math.pi
+#: states larger than this go through BLAS (dgemm) for ``P -= W1 W1ᵀ``, under the BLAS
+#: thread limit; smaller ones through the compiled loop (no BLAS call, no thread limit)
+_BLAS_MIN_STATE = 200
 _NO_COMPATIBLE = np.zeros(0, dtype=bool)
 
 
@@ -92,7 +107,18 @@ def check_state(x: np.ndarray, P: np.ndarray, *, psd: bool = False) -> None:
 
 
 def _check_cov(name: str, C: np.ndarray, tol: float = 1e-9) -> None:
-    """Symmetric positive semi-definite, finite, non-negative variances."""
+    """Symmetric positive semi-definite, finite, non-negative variances: the compiled
+    check (:func:`~slam.estimators.aekf_kernels.cov_status`) passes valid input; anything
+    it flags goes through the NumPy checks below, which raise with the details."""
+    C = np.asarray(C, dtype=float)
+    if C.ndim >= 2 and C.shape[-1] == C.shape[-2]:
+        C3 = np.ascontiguousarray(C).reshape(-1, C.shape[-2], C.shape[-1])
+        if cov_status(C3, tol) == OK:
+            return
+    _check_cov_numpy(name, C, tol)
+
+
+def _check_cov_numpy(name: str, C: np.ndarray, tol: float) -> None:
     if not np.all(np.isfinite(C)):
         raise ValueError(f"{name} must be finite, got {np.asarray(C).tolist()}")
     d = np.diagonal(C, axis1=-2, axis2=-1)
@@ -118,6 +144,10 @@ def as_odometry(u, Q) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"u (odometry increment) must have shape (3,), got {u.shape}")
     if Q.shape != (3, 3):
         raise ValueError(f"Q (odometry covariance) must have shape (3, 3), got {Q.shape}")
+    u = np.ascontiguousarray(u)
+    Q = np.ascontiguousarray(Q)
+    if odo_status(u, Q, 1e-9) == OK:
+        return u, Q
     if not np.all(np.isfinite(u)):
         raise ValueError(f"u (odometry increment) must be finite, got {u}")
     _check_cov("Q (odometry covariance)", Q)
@@ -136,6 +166,9 @@ def as_observations(z, R) -> tuple[np.ndarray, np.ndarray]:
         R = np.broadcast_to(R, (z.shape[0], 2, 2))
     if R.shape != (z.shape[0], 2, 2):
         raise ValueError(f"R must have shape (2, 2) or ({z.shape[0]}, 2, 2), got {R.shape}")
+    R = np.ascontiguousarray(R)
+    if obs_status(np.ascontiguousarray(z), R, 1e-9) == OK:
+        return z, R
     if not np.all(np.isfinite(z)):
         raise ValueError(f"z (observations) must be finite, got {z.tolist()}")
     if z.size and np.any(z[:, 0] <= 0.0):
@@ -171,27 +204,35 @@ def predict(x, P, u, Q, *, x_lin=None, inplace: bool = False):
 
     Returns ``(x, P)``. Only ``P_v`` (3×3) and ``P_vm`` / ``P_mv`` change: O(n).
     """
-    x = np.asarray(x, dtype=float)
-    P = np.asarray(P, dtype=float)
-    if not inplace:
-        x = x.copy()
-        P = P.copy()
-    phi = float(x[2])
-    c, s = math.cos(phi), math.sin(phi)
-    dxw = c * u[0] - s * u[1]
-    dyw = s * u[0] + c * u[1]
-    xn, yn = float(x[0]) + dxw, float(x[1]) + dyw
-    ref = x if x_lin is None else x_lin
-    F = np.array([[1.0, 0.0, -(yn - ref[1])], [0.0, 1.0, xn - ref[0]], [0.0, 0.0, 1.0]])
-    G = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    Pvv = F @ P[:3, :3] @ F.T + G @ Q @ G.T
-    P[:3, :3] = 0.5 * (Pvv + Pvv.T)
-    if P.shape[0] > 3:
-        Pvm = F @ P[:3, 3:]
-        P[:3, 3:] = Pvm
-        P[3:, :3] = Pvm.T
-    x[0], x[1], x[2] = xn, yn, wrap_scalar(phi + float(u[2]))
-    return x, P
+    xw, Pw = _work(x, inplace), _work(P, inplace)
+    ref = xw[:3].copy() if x_lin is None else np.ascontiguousarray(x_lin, dtype=float)[:3]
+    predict_inplace(
+        xw, Pw, np.ascontiguousarray(u, dtype=float), np.ascontiguousarray(Q, dtype=float), ref
+    )
+    return _written_back(x, xw, inplace), _written_back(P, Pw, inplace)
+
+
+def _work(a, inplace: bool) -> np.ndarray:
+    """``a`` itself when ``inplace`` and already a float64 C-contiguous array (what the
+    compiled steps take), else a float64 C-contiguous copy."""
+    if (
+        inplace
+        and isinstance(a, np.ndarray)
+        and a.dtype == np.float64
+        and a.flags.c_contiguous
+        and a.flags.writeable
+    ):
+        return a
+    return np.array(a, dtype=float, order="C")
+
+
+def _written_back(a, work: np.ndarray, inplace: bool) -> np.ndarray:
+    """With ``inplace``, the caller's array holding ``work`` (copied back when ``work`` is
+    a copy); else ``work``."""
+    if inplace and work is not a:
+        a[...] = work
+        return a
+    return work
 
 
 def compose_odometry(u1, Q1, u2, Q2) -> tuple[np.ndarray, np.ndarray]:
@@ -223,24 +264,6 @@ def _innovation(z, zhat):
     return y
 
 
-def _PHt(P, idx, Hv, Hm):
-    """``P Hᵀ`` (N, 2k) using only the non-zero columns of H: O(N k)."""
-    k = idx.size
-    cols = 3 + 2 * idx
-    Pm = P[:, np.stack([cols, cols + 1], axis=1).reshape(-1)].reshape(-1, k, 2)
-    PHt = np.einsum("na,kba->nkb", P[:, :3], Hv) + np.einsum("nka,kba->nkb", Pm, Hm)
-    return PHt.reshape(-1, 2 * k)
-
-
-def _HPHt(PHt, idx, Hv, Hm):
-    """``H (P Hᵀ)`` (2k, 2k) from the rows of ``P Hᵀ`` at the non-zero columns of H."""
-    k = idx.size
-    cols = 3 + 2 * idx
-    A = PHt[:3, :]
-    B = PHt[np.stack([cols, cols + 1], axis=1).reshape(-1), :].reshape(k, 2, -1)
-    return (np.einsum("kba,am->kbm", Hv, A) + np.einsum("kba,kam->kbm", Hm, B)).reshape(2 * k, -1)
-
-
 def trsolve(L: np.ndarray, B: np.ndarray, trans: int = 0) -> np.ndarray:
     """Solve ``L X = B`` (``trans=1``: ``Lᵀ X = B``) for lower-triangular L (LAPACK dtrtrs;
     scipy's ``solve_triangular`` wrapper costs more than the solve at these sizes)."""
@@ -251,12 +274,16 @@ def trsolve(L: np.ndarray, B: np.ndarray, trans: int = 0) -> np.ndarray:
 
 
 def subtract_outer(P: np.ndarray, W1: np.ndarray) -> None:
-    """``P -= W1 W1ᵀ`` in place, one pass over P (BLAS dgemm on the transposed view)."""
-    if P.flags.c_contiguous and P.dtype == np.float64 and P.shape[0] > 64:
+    """``P -= W1 W1ᵀ`` in place, one pass over P: BLAS dgemm on the transposed view for a
+    large P, the compiled loop (:func:`slam.estimators.aekf_kernels.downdate`) for a small
+    one."""
+    if not (P.flags.c_contiguous and P.dtype == np.float64):
+        P -= W1 @ W1.T
+    elif P.shape[0] > _BLAS_MIN_STATE:
         # P is symmetric, so updating Pᵀ (its Fortran-ordered view) updates P.
         _blas.dgemm(-1.0, W1, W1, beta=1.0, c=P.T, trans_b=1, overwrite_c=1)
     else:
-        P -= W1 @ W1.T
+        downdate(P, np.ascontiguousarray(W1, dtype=float))
 
 
 def update(
@@ -299,47 +326,45 @@ def update(
 
     Returns ``(x, P)``.
     """
-    x = np.asarray(x, dtype=float)
-    P = np.asarray(P, dtype=float)
-    if not inplace:
-        x = x.copy()
-        P = P.copy()
-    z = np.asarray(z, dtype=float).reshape(-1, 2)
-    idx = np.asarray(idx, dtype=np.intp).reshape(-1)
+    if not (isinstance(iterations, int | np.integer) and iterations >= 1):
+        raise ValueError(f"iterations must be an integer >= 1, got {iterations!r}")
+    xw, Pw = _work(x, inplace), _work(P, inplace)
+    z = np.ascontiguousarray(z, dtype=float).reshape(-1, 2)
+    idx = np.ascontiguousarray(idx, dtype=np.intp).reshape(-1)
     R = np.asarray(R, dtype=float)
     if R.shape == (2, 2):
         R = np.broadcast_to(R, (idx.size, 2, 2))
-    if not (isinstance(iterations, int | np.integer) and iterations >= 1):
-        raise ValueError(f"iterations must be an integer >= 1, got {iterations!r}")
-    if idx.size == 0:
-        return x, P
-    if batch:
-        _update_block(x, P, z, R, idx, x_lin, joseph, iterations, relinearize_gate)
-    else:
+    R = np.ascontiguousarray(R)
+    xl = xw if x_lin is None else np.ascontiguousarray(x_lin, dtype=float)
+    if idx.size and batch:
+        _update_block(xw, Pw, z, R, idx, xl, joseph, iterations, relinearize_gate)
+    elif idx.size:
         for j in range(idx.size):
             _update_block(
-                x,
-                P,
+                xw,
+                Pw,
                 z[j : j + 1],
                 R[j : j + 1],
                 idx[j : j + 1],
-                x_lin,
+                xl,
                 joseph,
                 iterations,
                 relinearize_gate,
             )
-    return x, P
+    return _written_back(x, xw, inplace), _written_back(P, Pw, inplace)
 
 
-def _gain_factors(P, idx, Hv, Hm, Rb):
-    """``(P Hᵀ, S, L)`` with ``S = H P Hᵀ + R = L Lᵀ``: O(N k)."""
-    PHt = _PHt(P, idx, Hv, Hm)
-    S = _HPHt(PHt, idx, Hv, Hm) + Rb
-    S = 0.5 * (S + S.T)
-    return PHt, S, np.linalg.cholesky(S)
+def _gain_factors(x, P, z, R, idx, xl):
+    """``(P Hᵀ, S, L, W1, step)`` of the batch update, Jacobians at ``xl`` (compiled:
+    :func:`slam.estimators.aekf_kernels.ekf_gain`); LinAlgError when S is not positive
+    definite."""
+    ok, PHt, S, L, W1, step = ekf_gain(x, P, z, R, idx, xl)
+    if not ok:
+        raise np.linalg.LinAlgError("innovation covariance S is not positive definite")
+    return PHt, S, L, W1, step
 
 
-def _iterated_mean(x0, P, z, idx, Rb, iterations: int) -> np.ndarray:
+def _iterated_mean(x0, P, z, idx, R, iterations: int) -> np.ndarray:
     """Iterated-EKF mean (Gauss–Newton on ``|z - h(x)|²_R + |x - x0|²_P``), the
     Jacobians re-evaluated at each iterate. Only the pose and the observed landmarks enter
     ``h``, so each iteration costs O(N k)."""
@@ -347,7 +372,7 @@ def _iterated_mean(x0, P, z, idx, Rb, iterations: int) -> np.ndarray:
     xi = x0.copy()
     for _ in range(iterations):
         zhat, Hv, Hm = observe(xi, idx)
-        PHt, _, L = _gain_factors(P, idx, Hv, Hm, Rb)
+        PHt, _, L, _, _ = _gain_factors(xi, P, z, R, idx, xi)
         dx_v = x0[:3] - xi[:3]
         dx_v[2] = wrap_scalar(float(dx_v[2]))
         dx_m = (x0[cols] - xi[cols]).reshape(-1, 2)
@@ -389,55 +414,32 @@ def _surely_linear(x0, step, idx, R, gate: float) -> bool:
     ``delta`` (the step of ``m - p``): ``|e_r| <= |delta|² / (2 r_min)`` and ``|e_b| <=
     |delta|² / (2 r_min²)`` (Hessian norms ``1/r`` and ``1/r²``) with ``r_min = |d| -
     |delta|``, and ``eᵀ R⁻¹ e <= Σ |e_j|² / λ_min(R_j)``. Scalar arithmetic on the k
-    observations of a scan (a handful), cheaper than the exact check's array calls."""
-    total = 0.0
-    for j, i in enumerate(idx.tolist()):
-        c = 3 + 2 * i
-        r = math.hypot(float(x0[c] - x0[0]), float(x0[c + 1] - x0[1]))
-        ex, ey = float(step[c] - step[0]), float(step[c + 1] - step[1])
-        s2 = ex * ex + ey * ey
-        r_min = r - math.sqrt(s2)
-        a, b, d = float(R[j, 0, 0]), float(R[j, 0, 1]), float(R[j, 1, 1])
-        lam = 0.5 * (a + d) - math.hypot(0.5 * (a - d), b)
-        if r_min <= 0.0 or lam <= 0.0:
-            return False
-        e_r = 0.5 * s2 / r_min
-        e_b = e_r / r_min
-        total += (e_r * e_r + e_b * e_b) / lam
-    return total <= gate
+    observations of a scan (a handful), cheaper than the exact check's array calls (compiled:
+    :func:`slam.estimators.aekf_kernels.surely_linear`)."""
+    return surely_linear(x0, step, idx, R, gate)
 
 
 def _update_block(
-    x, P, z, R, idx, x_lin, joseph, iterations: int = 1, relinearize_gate: float = 1.0
+    x, P, z, R, idx, xl, joseph, iterations: int = 1, relinearize_gate: float = 1.0
 ) -> None:
-    k = idx.size
-    Rb = np.zeros((2 * k, 2 * k))
-    for j in range(k):  # k observations of one scan, not landmarks
-        Rb[2 * j : 2 * j + 2, 2 * j : 2 * j + 2] = R[j]
-    zhat, Hv, Hm = observe(x, idx, x_lin=x_lin)
-    y = _innovation(z, zhat).reshape(-1)
-    PHt, S, L = _gain_factors(P, idx, Hv, Hm, Rb)
-    # W1 = P Hᵀ L⁻ᵀ, K = W1 L⁻¹ (gain, thesis's W); x += K y = W1 (L⁻¹ y)
-    W1 = trsolve(L, PHt.T).T
-    step = W1 @ trsolve(L, y)
+    """One batch update of ``x``, ``P`` in place (float64 C-contiguous; ``xl`` the
+    linearization state, ``x`` itself for the standard EKF)."""
+    PHt, S, L, W1, step = _gain_factors(x, P, z, R, idx, xl)
     if (
         iterations > 1
         and not _surely_linear(x, step, idx, R, relinearize_gate)
-        and _linearization_error(x, step, idx, Rb) > relinearize_gate
+        and _linearization_error(x, step, idx, _block_diag(R)) > relinearize_gate
     ):
         # the EKF step left the region where h is linear (a loop closure correcting
         # metres of drift): iterate the mean. The covariance takes H at the converged
         # estimate, or with FEJ still at the first estimates: re-linearizing it there
         # once per loop closure gave the filter spurious heading information (50 dense
         # loops: NEES 3.81 against 3.18, 51 % of scans inside the bounds against 87 %).
-        x_new = _iterated_mean(x, P, z, idx, Rb, iterations)
-        _, Hv, Hm = observe(x, idx, x_lin=x_lin) if x_lin is not None else observe(x_new, idx)
-        PHt, S, L = _gain_factors(P, idx, Hv, Hm, Rb)
-        W1 = trsolve(L, PHt.T).T
+        x_new = _iterated_mean(x, P, z, idx, R, iterations)
+        PHt, S, L, W1, _ = _gain_factors(x_new, P, z, R, idx, xl if xl is not x else x_new)
         x[...] = x_new
     else:
-        x += step
-        x[2] = wrap_scalar(float(x[2]))
+        add_step(x, step)
     if joseph:
         # (I-KH)P(I-KH)ᵀ + KRKᵀ = P - K(HP) - (PHᵀ)Kᵀ + K(HPHᵀ + R)Kᵀ, all O(n² k)
         K = trsolve(L, W1.T, trans=1).T
@@ -448,6 +450,15 @@ def _update_block(
         P[...] = 0.5 * (P + P.T)
     else:
         subtract_outer(P, W1)
+
+
+def _block_diag(R: np.ndarray) -> np.ndarray:
+    """(2k, 2k) block diagonal of the k (2, 2) covariances ``R``."""
+    k = R.shape[0]
+    Rb = np.zeros((2 * k, 2 * k))
+    for j in range(k):  # k observations of one scan, not landmarks
+        Rb[2 * j : 2 * j + 2, 2 * j : 2 * j + 2] = R[j]
+    return Rb
 
 
 def augment(x, P, z, R):
@@ -821,8 +832,9 @@ class AEKFSlam:
     def predict_arrays(self, u, Q) -> None:
         """Predict from ``u`` (3,) body-frame increment with covariance ``Q`` (3, 3)."""
         u, Q = as_odometry(u, Q)
-        x_lin = self._pose_prior if self.config.jacobians == "fej" else None
-        predict(self.x, self.P, u, Q, x_lin=x_lin, inplace=True)
+        self.x, self.P = _work(self.x, True), _work(self.P, True)
+        ref = self._pose_prior if self.config.jacobians == "fej" else self.x[:3].copy()
+        predict_inplace(self.x, self.P, u, Q, ref)
         self._pose_prior = self.x[:3].copy()
 
     def update(self, observations: Sequence[RangeBearing]) -> UpdateResult:
@@ -842,6 +854,8 @@ class AEKFSlam:
     def update_arrays(self, z, R, labels=None) -> UpdateResult:
         """Associate, update and augment with one scan: ``z`` (k, 2), ``R`` (2, 2) or
         (k, 2, 2), ``labels`` (k,) int or None (needed for ``association="known"``)."""
+        if self.x.size + 2 * len(z) <= _BLAS_MIN_STATE:  # no BLAS call: no thread limit
+            return self._update_arrays(z, R, labels)
         with _blas_limit(self.config.blas_threads):
             return self._update_arrays(z, R, labels)
 
@@ -864,20 +878,11 @@ class AEKFSlam:
         if cfg.association == "jcbb":
             jc = jcbb(self.x, self.P, z, R, confidence=cfg.jcbb_confidence)
             idx = jc.pairs
-            scores = jc.nis
-            new = (
-                (idx < 0)
-                & ~jc.ambiguous
-                & (np.all(scores > cfg.augment_gate, axis=1) if n else np.ones(k, dtype=bool))
-            )
-            nis = np.full(k, np.nan)
-            m = idx >= 0
-            nis[m] = scores[np.flatnonzero(m), idx[m]]
-            compatible = (scores < cfg.augment_gate).any(axis=0) if n else None
+            new, nis, compatible = jcbb_outcome(jc.nis, idx, jc.ambiguous, cfg.augment_gate)
         elif cfg.association == "known":
             idx, new = self._associate_known(labels)
             nis = np.full(k, np.nan)
-            if np.any(idx >= 0):
+            if (idx >= 0).any():
                 m = idx >= 0
                 s, _ = association_scores(self.x, self.P, z[m], R[m], x_lin=x_lin)
                 nis[m] = s[np.arange(m.sum()), idx[m]]
@@ -897,22 +902,10 @@ class AEKFSlam:
             )
             compatible = (scores < cfg.augment_gate).any(axis=0)
         known = idx >= 0
-        if np.any(known):
-            update(
-                self.x,
-                self.P,
-                z[known],
-                R[known],
-                idx[known],
-                x_lin=x_lin,
-                batch=cfg.batch,
-                joseph=cfg.joseph,
-                iterations=cfg.iterations,
-                relinearize_gate=cfg.relinearize_gate,
-                inplace=True,
-            )
+        if known.any():
+            self._update_known(z[known], R[known], idx[known], x_lin)
         assoc = idx.copy()
-        if np.any(new):
+        if new.any():
             m = int(new.sum())
             self.x, self.P = augment(self.x, self.P, z[new], R[new])
             self._lm_first = np.concatenate([self._lm_first, self.x[3 + 2 * n :].reshape(m, 2)])
@@ -923,10 +916,23 @@ class AEKFSlam:
             self.misses = np.concatenate([self.misses, np.zeros(m, np.int64)])
             self.hits = np.concatenate([self.hits, np.ones(m, np.int64)])
             assoc[new] = n + np.arange(m)
-        if np.any(known):
+        if known.any():
             self.hits[idx[known]] += 1
         assoc = self._end_of_scan(assoc, compatible)
         return UpdateResult(assoc, new, nis)
+
+    def _update_known(self, z, R, idx, x_lin) -> None:
+        """:func:`update` of the filter's own state in place with the scan's associated
+        observations (validated C-contiguous arrays: straight to the compiled steps)."""
+        cfg = self.config
+        self.x, self.P = _work(self.x, True), _work(self.P, True)
+        xl = self.x if x_lin is None else x_lin
+        args = (xl, cfg.joseph, cfg.iterations, cfg.relinearize_gate)
+        if cfg.batch:
+            _update_block(self.x, self.P, z, R, idx, *args)
+        else:
+            for j in range(idx.size):
+                _update_block(self.x, self.P, z[j : j + 1], R[j : j + 1], idx[j : j + 1], *args)
 
     def pose(self) -> tuple[np.ndarray, np.ndarray]:
         return self.x[:3].copy(), self.P[:3, :3].copy()
@@ -1069,7 +1075,7 @@ class AEKFSlam:
             -1 if cfg.max_misses is None else cfg.max_misses,
             -1 if cfg.provisional_misses is None else cfg.provisional_misses,
         )
-        if not np.any(drop):
+        if not drop.any():
             return assoc
         dropped = np.flatnonzero(drop)
         self.x, self.P = remove_landmarks(self.x, self.P, dropped)

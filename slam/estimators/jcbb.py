@@ -20,13 +20,15 @@ Cholesky factorization.
 
 from __future__ import annotations
 
-import math
 from functools import lru_cache
 
 import numpy as np
 from scipy.stats import chi2
 
-from slam.estimators.rb_model import association_scores, observe
+from slam.estimators.rb_kernels import joint_nis, pair_covariance
+from slam.estimators.rb_model import association_scores
+
+_PAIR = np.arange(2, dtype=np.intp)
 
 __all__ = ["JCBBResult", "chi2_limits", "jcbb", "jcbb_search"]
 
@@ -57,27 +59,26 @@ def chi2_limits(confidence: float, k: int) -> np.ndarray:
 
 
 def _pair_covariance(x, P, z, R, obs, lms):
-    """Innovations ``(c, 2)`` and joint covariance ``(2c, 2c)`` of candidate pairs
+    """Innovations ``(2c,)`` and joint covariance ``(2c, 2c)`` of candidate pairs
     ``(obs[a], lms[a])``: ``S_ab = H_a P H_bᵀ + [obs_a = obs_b] R``, from the 5 × 5
-    pose-and-landmark blocks of P (one gather, two batched products)."""
-    c = obs.size
-    zhat, Hv, Hm = observe(x, lms)
-    nu = z[obs] - zhat
-    nu[:, 1] = (nu[:, 1] + math.pi) % (2 * math.pi) - math.pi
-    H = np.concatenate([Hv, Hm], axis=2)  # (c, 2, 5): pose columns, landmark columns
-    cols = np.empty((c, 5), dtype=np.intp)
-    cols[:, :3] = np.arange(3)
-    cols[:, 3] = 3 + 2 * lms
-    cols[:, 4] = 4 + 2 * lms
-    flat = cols.reshape(-1)
-    Psub = P[flat[:, None], flat[None, :]].reshape(c, 5, c, 5)
-    HP = np.einsum("aij,ajbk->aibk", H, Psub)  # (c, 2, c, 5)
-    S = np.einsum("aibk,blk->aibl", HP, H).reshape(2 * c, 2 * c)
-    for a in range(c):  # R on the blocks of pairs sharing an observation (c is a handful)
-        for b in range(c):
-            if obs[a] == obs[b]:
-                S[2 * a : 2 * a + 2, 2 * b : 2 * b + 2] += R[obs[a]]
-    return nu.reshape(-1), 0.5 * (S + S.T)
+    pose-and-landmark blocks of P (compiled: :func:`slam.estimators.rb_kernels.pair_covariance`)."""
+    return pair_covariance(
+        np.ascontiguousarray(x, dtype=float),
+        np.ascontiguousarray(P, dtype=float),
+        np.ascontiguousarray(z, dtype=float),
+        np.ascontiguousarray(R, dtype=float),
+        np.ascontiguousarray(obs, dtype=np.intp),
+        np.ascontiguousarray(lms, dtype=np.intp),
+    )
+
+
+def _joint_nis(S, nu, rows) -> float:
+    """``nuᵀ S⁻¹ nu`` over ``rows``; LinAlgError when that block of S is not positive
+    definite (as a Cholesky factorization would raise)."""
+    d2 = joint_nis(S, nu, rows)
+    if d2 < 0.0:
+        raise np.linalg.LinAlgError("joint covariance of the hypothesis is not positive definite")
+    return d2
 
 
 def jcbb(
@@ -130,8 +131,7 @@ def jcbb(
     if len(set(obs.tolist())) == obs.size and len(set(lms.tolist())) == lms.size:
         # one candidate per observation, each landmark once (most scans): if they are
         # jointly compatible, that hypothesis is the only one of the largest size
-        w = np.linalg.solve(np.linalg.cholesky(S), nu)
-        d2 = float(w @ w)
+        d2 = _joint_nis(S, nu, np.arange(nu.size))
         if d2 < limits[obs.size - 1]:
             pairs[obs] = lms
             return JCBBResult(pairs, d2, nis, 1, True)
@@ -168,11 +168,11 @@ def jcbb_search(obs, lms, score, nu, S, k, limits, max_nodes, reject_ambiguous=T
     ties: list[frozenset] = []  # every jointly compatible hypothesis of the best size
     nodes = 0
 
+    S = np.ascontiguousarray(S, dtype=float)
+    nu = np.ascontiguousarray(nu, dtype=float)
+
     def joint_nis(sel):
-        rows = (2 * np.asarray(sel)[:, None] + np.arange(2)).reshape(-1)
-        L = np.linalg.cholesky(S[np.ix_(rows, rows)])
-        w = np.linalg.solve(L, nu[rows])
-        return float(w @ w)
+        return _joint_nis(S, nu, (2 * np.asarray(sel, dtype=np.intp)[:, None] + _PAIR).reshape(-1))
 
     def search(i, sel, used, d2):
         nonlocal nodes

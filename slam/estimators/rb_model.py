@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 
+from slam.estimators.rb_kernels import nis_scores
+
 _TWO_PI = 2.0 * math.pi
 
 
@@ -58,12 +60,12 @@ def association_scores(x, P, z, R, *, x_lin=None, ml: bool = True):
 
     Returns ``nis (k, n)`` = ``yᵀ S⁻¹ y`` and ``nd (k, n)`` = ``nis + ln det S`` (Bailey's
     "normalised distance", the negative log-likelihood up to constants; None with
-    ``ml=False``), vectorized: S of all landmarks comes from the 5×5 vehicle-landmark
-    blocks of P in one batched product.
+    ``ml=False``): S of each landmark from the 5×5 vehicle-landmark block of P, compiled
+    (:func:`slam.estimators.rb_kernels.nis_scores`), Jacobians at ``x_lin`` (default x).
     """
-    x = np.asarray(x, dtype=float)
-    P = np.asarray(P, dtype=float)
-    z = np.asarray(z, dtype=float).reshape(-1, 2)
+    x = np.ascontiguousarray(x, dtype=float)
+    P = np.ascontiguousarray(P, dtype=float)
+    z = np.ascontiguousarray(z, dtype=float).reshape(-1, 2)
     k = z.shape[0]
     n = (x.size - 3) // 2
     R = np.asarray(R, dtype=float)
@@ -71,22 +73,9 @@ def association_scores(x, P, z, R, *, x_lin=None, ml: bool = True):
         R = np.broadcast_to(R, (k, 2, 2))
     if n == 0 or k == 0:
         return np.empty((k, n)), np.empty((k, n))
-    ar = np.arange(n)
-    zhat, Hv, Hm = observe(x, ar, x_lin=x_lin)
-    # S_i = Hv Pvv Hvᵀ + Hv Pvi Hmᵀ + (..)ᵀ + Hm Pii Hmᵀ
-    Pvv = P[:3, :3]
-    Pvi = P[:3, 3:].reshape(3, n, 2).transpose(1, 0, 2)  # (n, 3, 2)
-    Pii = P[3:, 3:].reshape(n, 2, n, 2)[ar, :, ar, :]  # (n, 2, 2)
-    HmT = np.swapaxes(Hm, 1, 2)
-    C = Hv @ Pvi @ HmT
-    S0 = Hv @ Pvv @ np.swapaxes(Hv, 1, 2) + C + np.swapaxes(C, 1, 2) + Hm @ Pii @ HmT
-    S = S0[None, :, :, :] + R[:, None, :, :]  # (k, n, 2, 2)
-    y = z[:, None, :] - zhat[None, :, :]
-    y[..., 1] = wrap(y[..., 1])
-    a, b, d = S[..., 0, 0], 0.5 * (S[..., 0, 1] + S[..., 1, 0]), S[..., 1, 1]
-    det = a * d - b * b
-    nis = (d * y[..., 0] ** 2 - 2.0 * b * y[..., 0] * y[..., 1] + a * y[..., 1] ** 2) / det
-    return nis, (nis + np.log(det) if ml else None)
+    xl = x if x_lin is None else np.ascontiguousarray(x_lin, dtype=float)
+    nis, nd = nis_scores(x, P, z, np.ascontiguousarray(R), xl, ml)
+    return nis, (nd if ml else None)
 
 
 def inv2(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
