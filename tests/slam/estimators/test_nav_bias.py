@@ -121,7 +121,10 @@ class DenseJointEKF:
             lm = self.x[:2] + r * np.array([math.cos(phi + br), math.sin(phi + br)])
             Gv = np.array([[1, 0, -r * math.sin(phi + br)], [0, 1, r * math.cos(phi + br)]])
             Gz = np.array(
-                [[math.cos(phi + br), -r * math.sin(phi + br)], [math.sin(phi + br), r * math.cos(phi + br)]]
+                [
+                    [math.cos(phi + br), -r * math.sin(phi + br)],
+                    [math.sin(phi + br), r * math.cos(phi + br)],
+                ]
             )
             pos = 3 + 2 * self.n  # insert before the bias block
             N = self.x.size
@@ -146,7 +149,10 @@ def _loop_stream(seed: int, deviation, n_loops: int = 2):
     R0, v, dt = 40.0, 1.5, 1.0
     w = v / R0
     lms = np.array(
-        [[(R0 + 12) * math.cos(a), (R0 + 12) * math.sin(a)] for a in np.linspace(0, 2 * np.pi, 8, endpoint=False)]
+        [
+            [(R0 + 12) * math.cos(a), (R0 + 12) * math.sin(a)]
+            for a in np.linspace(0, 2 * np.pi, 8, endpoint=False)
+        ]
     )
     Rz = np.diag([0.3**2, math.radians(1.0) ** 2])
     Q = np.diag([0.02**2, 0.02**2, math.radians(0.05) ** 2])
@@ -155,7 +161,13 @@ def _loop_stream(seed: int, deviation, n_loops: int = 2):
     n = int(n_loops * 2 * math.pi / w / dt)
     eps0 = _basis(pose[2]) @ deviation
     for k in range(1, n + 1):
-        u_true = np.array([v * dt * math.sin(w * dt) / (w * dt), v * dt * (1 - math.cos(w * dt)) / (w * dt), w * dt])
+        u_true = np.array(
+            [
+                v * dt * math.sin(w * dt) / (w * dt),
+                v * dt * (1 - math.cos(w * dt)) / (w * dt),
+                w * dt,
+            ]
+        )
         new = pose.copy()
         c, s = math.cos(pose[2]), math.sin(pose[2])
         new[:2] += [c * u_true[0] - s * u_true[1], s * u_true[0] + c * u_true[1]]
@@ -216,7 +228,9 @@ def test_regression_update_equals_the_dense_joint_ekf():
     np.testing.assert_allclose(inner.x, ref.x[: 3 + 2 * ref.n], atol=1e-7)
     np.testing.assert_allclose(b, ref.x[nb], atol=1e-9)
     np.testing.assert_allclose(Pb, ref.P[nb, nb], atol=1e-12, rtol=1e-6)
-    np.testing.assert_allclose(inner.P, ref.P[: 3 + 2 * ref.n, : 3 + 2 * ref.n], atol=1e-9, rtol=1e-6)
+    np.testing.assert_allclose(
+        inner.P, ref.P[: 3 + 2 * ref.n, : 3 + 2 * ref.n], atol=1e-9, rtol=1e-6
+    )
     np.testing.assert_allclose(est.C, ref.P[nb, : 3 + 2 * ref.n], atol=1e-10, rtol=1e-6)
 
 
@@ -245,11 +259,11 @@ def test_loop_recovers_the_compass_deviation_and_beats_the_plain_filter():
 
 @pytest.mark.parametrize("field", ["hard_iron_std", "drift_std", "velocity_bias_std"])
 def test_bad_model_field_is_named(field):
-    with pytest.raises(ValueError, match=f"NavBiasModel.{field}"):
+    with pytest.raises(ValueError, match=rf"NavBiasModel\.{field}"):
         NavBiasModel(**{field: -1.0})
 
 
 def test_odometry_back_in_time_is_refused():
     est = NavBiasSlam(AEKFSlam(x0=np.zeros(3)), MODEL, t0=5.0)
-    with pytest.raises(ValueError, match="odometry.t"):
+    with pytest.raises(ValueError, match=r"odometry\.t"):
         est.predict(Odometry(np.zeros(3), np.eye(3) * 1e-4, 4.0))
