@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -147,6 +148,12 @@ class NavBiasSlam:
         if key == "inner":
             raise AttributeError(key)
         return getattr(self.inner, key)
+
+    def join(self) -> SimpleNamespace:
+        """The joint map ``x, P`` over [pose, landmarks] (the inner filter's full state, the
+        exact marginal of the joint one): what slam.fleet merges."""
+        x, P = self.inner.state()
+        return SimpleNamespace(x=x, P=P)
 
     def bias(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of the bias estimate (9,) and its covariance (9, 9)."""
