@@ -26,6 +26,7 @@ from sim.world import (
     WorldSpec,
 )
 from sim.world import VehicleSpec as WorldVehicleSpec
+from slam.estimators.nav_bias import NavBiasModel, NavBiasSlam
 from slam.pipeline import (
     DetectionTally,
     EstimatorSpec,
@@ -273,9 +274,42 @@ def object_class_of(world):
     return class_of
 
 
+def nav_bias_model(vs: VehicleSpec) -> NavBiasModel | None:
+    """The navigation bias states SLAM carries for this vehicle (slam.estimators.nav_bias),
+    or None. On for the AEKF with a compass-aided heading (the MEMS AHRS payloads, whose
+    drift is the compass deviation, its slow drift and the DVL's constants): their
+    priors are the sensors' own datasheet errors. Then the run hands SLAM each odometry
+    increment's own covariance (``NavSuiteConfig.matched_odometry_covariance = False``,
+    :func:`nav_suite_config`): the states carry the correlated errors the matched Q
+    stood in for. Off for other estimators and for a gyro (FOG) heading."""
+    cfg = vs.nav.suite_config()
+    if vs.slam.estimator != "aekf" or not cfg.aided:
+        return None
+    ah, dvl = cfg.ahrs, cfg.dvl
+    return NavBiasModel(
+        hard_iron_std=ah.hard_iron_std,
+        soft_iron_std=ah.soft_iron_std,
+        drift_std=ah.drift_std,
+        drift_tau_s=ah.drift_tau_s,
+        scale_factor_std=dvl.scale_factor_std,
+        misalignment_std=dvl.misalignment_std,
+        velocity_bias_std=dvl.velocity_bias_std,
+    )
+
+
+def nav_suite_config(vs: VehicleSpec):
+    """The vehicle's NavSuiteConfig for a run: the matched odometry Q unless SLAM carries
+    the navigation bias states (:func:`nav_bias_model`)."""
+    cfg = vs.nav.suite_config()
+    if nav_bias_model(vs) is not None:
+        cfg = replace(cfg, matched_odometry_covariance=False)
+    return cfg
+
+
 def make_pipeline(world, vs: VehicleSpec, sonars: list[SonarRuntime], rng) -> SonarSlam:
     """The vehicle's SonarSlam: a front end per sonar, the scenario's estimator at the
-    start pose (none when ``slam.estimator = "none"``)."""
+    start pose (none when ``slam.estimator = "none"``), with the navigation bias states
+    of :func:`nav_bias_model` where they apply."""
     cfg = pipeline_config(vs)
     class_of = object_class_of(world)
     frontends = {s.spec.name: make_frontend(s.geometry, cfg, class_of=class_of) for s in sonars}
@@ -283,4 +317,7 @@ def make_pipeline(world, vs: VehicleSpec, sonars: list[SonarRuntime], rng) -> So
     est = None
     if vs.slam.estimator != "none" and sonars:
         est = build_estimator(EstimatorSpec(vs.slam.estimator, vs.slam.params), pose0, cfg, rng)
+        bias = nav_bias_model(vs)
+        if bias is not None:
+            est = NavBiasSlam(est, bias, t0=world.time)
     return SonarSlam(frontends, est, cfg, t0=world.time, pose0=pose0)

@@ -31,6 +31,7 @@ from sim.runner.build import (
     make_pipeline,
     make_sonar,
     mission_for,
+    nav_suite_config,
     world_spec_from_scenario,
 )
 from sim.scenario.schema import Scenario
@@ -132,7 +133,7 @@ class ScenarioRun:
             ap = autopilot_for(self.world, vs.name, mission_for(vs, swath * 0.8), check=False)
             pose0 = np.array([*vs.start_position[:2], math.radians(vs.start_yaw_deg)])
             nav = NavSuite(
-                vs.nav.suite_config(),
+                nav_suite_config(vs),
                 np.random.default_rng(s_nav),
                 t0=self.world.time,
                 initial_pose=pose0,

@@ -7,6 +7,7 @@ import numpy as np
 
 from sim.runner.build import VehicleRuntime
 from sim.runner.metrics import detection_metrics, landmark_metrics, pose_metrics
+from slam.estimators.nav_bias import BIAS_STATES
 
 
 def interp_angle(t, tt, a) -> np.ndarray:
@@ -91,4 +92,24 @@ def _one_vehicle(v: VehicleRuntime, objs, truth_xy) -> dict:
         "n_predicts": v.lagged.n_predicts,
         "n_updates": v.lagged.n_updates,
     }
+    if callable(getattr(v.lagged.estimator, "bias", None)):
+        d["slam"]["nav_bias"] = _nav_bias(v)
     return d
+
+
+def _nav_bias(v: VehicleRuntime) -> dict:
+    """SLAM's navigation bias states (slam.estimators.nav_bias) at the end of the run:
+    estimate and standard deviation of each, beside the sensors' true values (the
+    compass drift's at the end of the run)."""
+    b, P = v.lagged.estimator.bias()
+    nav = v.nav
+    true = [*nav.ahrs.deviation, nav.ahrs.drift, nav.dvl.scale_error, nav.dvl.misalignment]
+    true += list(nav.dvl.velocity_bias[:2])
+    return {
+        n: {
+            "estimate": float(b[i]),
+            "sd": float(np.sqrt(max(P[i, i], 0.0))),
+            "true": float(true[i]),
+        }
+        for i, n in enumerate(BIAS_STATES)
+    }

@@ -10,9 +10,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sim.runner.build import pipeline_config
+from sim.runner.build import nav_bias_model, pipeline_config
 from sim.runner.schedule import ScenarioRun
 from sim.scenario.schema import load_scenario
+from slam.estimators.nav_bias import NavBiasSlam
 from slam.pipeline import (
     EstimatorSpec,
     Release,
@@ -78,6 +79,8 @@ def _fresh_pipeline(run, v) -> SonarSlam:
     fronts = {s.spec.name: make_frontend(s.geometry, cfg) for s in v.sonars}
     pose0 = v.slam.dr_pose[0]
     est = build_estimator(EstimatorSpec(vs.slam.estimator, vs.slam.params), pose0, cfg)
+    if nav_bias_model(vs) is not None:  # the run's navigation bias states
+        est = NavBiasSlam(est, nav_bias_model(vs), t0=v.slam.dr_t[0])
     return SonarSlam(fronts, est, cfg, t0=v.slam.dr_t[0], pose0=pose0)
 
 

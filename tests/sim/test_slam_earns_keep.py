@@ -4,7 +4,9 @@ Slow (``-m slow``): the full built-in ``shipwreck-survey`` and ``dense-loop`` ru
 SLAM an ATE at most half of dead reckoning's on the same odometry, the pose NEES inside
 its two-sided 95 % interval on >= 90 % of the steps, the landmark NEES mean below the
 chi2_2 95 % point and no duplicated landmark; ``harbour-fls`` keeps its pose NEES inside
-on >= 90 % of the steps. The expectation is the truth of the simulator (true poses and
+on >= 90 % of the steps; after the three loops of ``dense-loop`` SLAM's estimate of the
+compass's hard-iron deviation (slam.estimators.nav_bias) is within 3 sigma of the
+simulated sensor's. The expectation is the truth of the simulator (true poses and
 object positions) and the chi-square distribution, never the code's own output.
 
 CI: a short run of each prints and writes every one of those figures per vehicle
@@ -17,6 +19,7 @@ from __future__ import annotations
 import pytest
 from run_summary_checks import assert_prints_and_writes_slam_and_dead_reckoning
 
+from sim.navigation import AHRSConfig, DVLConfig
 from sim.runner import run_scenario
 from sim.scenario import load_scenario
 
@@ -44,7 +47,15 @@ def test_slam_beats_dead_reckoning_consistently(name, seed, tmp_path):
             assert po["ate_m"] <= 0.5 * po["dead_reckoning_ate_m"], po
             assert lm["n_duplicated_objects"] == 0, lm
             assert lm["landmark_nees_mean"] < lm["landmark_nees_95_upper"], lm
+        if name == "dense-loop":  # three loops: the hard-iron deviation is observed
+            nb = v["slam"]["nav_bias"]
+            for k in ("k1", "k2"):
+                assert abs(nb[k]["estimate"] - nb[k]["true"]) < 3 * nb[k]["sd"], nb
 
+
+#: the alister9's navigation payload (assets/vehicles/alister9/navigation.toml)
+HARD_IRON = AHRSConfig.preset("mems_ahrs").hard_iron_std
+DVL = DVLConfig.preset("rdi600")
 
 #: CI size of the side-scan runs: 400 samples per side over the same range
 SMALL_SSS = {"max_range": 40.0, "samples_per_side": 400, "range_resolution": 0.05}
@@ -52,11 +63,17 @@ SMALL_SSS = {"max_range": 40.0, "samples_per_side": 400, "range_resolution": 0.0
 
 def test_short_run_prints_and_writes_slam_and_dead_reckoning(tmp_path):
     """60 s of dense-loop (CI-size side-scan): every vehicle's SLAM and dead-reckoning
-    figures are written and printed, and its pose NEES stays inside the 95 % interval on
-    >= 90 % of the steps. (harbour-fls: the same figures are checked on the FLS CI run of
+    figures are written and printed, its pose NEES stays inside the 95 % interval on
+    >= 90 % of the steps, and its navigation bias states are reported. (harbour-fls: the same figures are checked on the FLS CI run of
     tests/sim/test_runner_fls.py, one run for both files.)"""
     extra = {"vehicles[0].sonars[0].overrides": {**SMALL_SSS, "max_range": 30.0}}
     res = _run("dense-loop", 1, tmp_path, 60.0, extra)
     assert_prints_and_writes_slam_and_dead_reckoning(res)
     for v in res.metrics["vehicles"].values():
         assert v["pose"]["nees_in_95_interval"] >= 0.9, v["pose"]
+        # SLAM carries the navigation bias states; the constant ones never grow beyond
+        # their datasheet priors (the vehicle's AHRS / DVL configs)
+        nb = v["slam"]["nav_bias"]
+        prior = {"k1": HARD_IRON, "k2": HARD_IRON, "s": DVL.scale_factor_std}
+        for k, sd0 in prior.items():
+            assert 0 < nb[k]["sd"] <= sd0 * (1 + 1e-9), (k, nb[k], sd0)
