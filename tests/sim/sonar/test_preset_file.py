@@ -97,3 +97,24 @@ def test_shipped_calibrated_presets_load():
         pf = load_preset_file(name)
         assert pf.base in ("deepeye680d_realistic", "deepeye680d")
         assert pf.config().acoustic.realism is not None
+
+
+def test_scenario_sets_the_receiver_gain_over_a_shipped_preset():
+    """A survey sets its own receiver gain over the calibrated preset's (the operator's
+    setting for the recording's geometry); the file's other fields stay."""
+    shipped = load_preset_file("scotsman_calibrated")
+    spec = parse_scenario(
+        _scenario_with("scotsman_calibrated", {"max_range": 40.0, "receiver_gain_db": 0.1})
+    )
+    rz = preset(spec.vehicles[0].sonars[0].preset, **dict(spec.vehicles[0].sonars[0].overrides))
+    assert rz.acoustic.realism.receiver_gain_db == 0.1
+    assert shipped.overrides["receiver_gain_db"] != 0.1
+    assert rz.acoustic.realism.texture_db == shipped.overrides["texture_db"]
+
+
+@pytest.mark.parametrize("gain", [150.0, "high"])
+def test_bad_receiver_gain_override_is_named(gain):
+    with pytest.raises(ScenarioError) as ei:
+        parse_scenario(_scenario_with("scotsman_calibrated", {"receiver_gain_db": gain}))
+    assert "vehicles[0].sonars[0].overrides" in str(ei.value)
+    assert "receiver_gain_db" in str(ei.value)
