@@ -12,8 +12,6 @@ from pathlib import Path
 
 from sim.cli.common import CliError
 
-HELP = "run a speed benchmark (physics, sonar, frontend, slam, env, sweep) and print its figures"
-
 
 def benchmarks_dir() -> Path:
     return Path(__file__).resolve().parents[2] / "benchmarks"

@@ -25,8 +25,6 @@ from slam.realism.compare import compare, format_table, json_ready
 from slam.realism.statistics import RealismConfig, split_sides, waterfall_statistics
 from slam.realism.synthetic import FULL_SCALE, PARAMETERS, StatisticalSideScan
 
-HELP = "fit a side-scan preset's realism levels to a real recording; write a preset TOML"
-
 #: the ray-cast model's free parameters (sim.sonar.effects.RealismConfig fields).
 RAYCAST_PARAMETERS = (
     Parameter("receiver_gain_db", -30.0, 20.0, 0.0),  # gain → saturation, headroom

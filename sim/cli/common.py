@@ -7,8 +7,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from sim.jsonsafe import dumps
-
 #: exit code of bad input (argparse uses the same)
 EXIT_USAGE = 2
 
@@ -19,6 +17,8 @@ class CliError(Exception):
 
 def print_json(obj: Any, *, indent: int | None = None) -> None:
     """Print ``obj`` as one strict JSON document (NaN/inf -> null, numpy -> Python)."""
+    from sim.jsonsafe import dumps  # numpy: not imported for `undersea --help`
+
     print(dumps(obj, indent=indent))
 
 

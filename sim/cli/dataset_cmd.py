@@ -8,8 +8,6 @@ import sys
 
 from sim.cli.common import finite_float, print_json
 
-HELP = "export labelled sonar frames (SSS tiles, FLS frames) with instance masks in COCO format"
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(

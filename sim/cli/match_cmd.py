@@ -8,10 +8,6 @@ import sys
 from sim.cli.common import CliError, finite_float, print_json, writable_file
 from slam.frontend.matching import DETECTORS
 
-HELP = (
-    "match two sonar images (Harris, BRISK, SIFT, ORB or ASIFT keypoints), bidirectional "
-    "NN ratio test and RANSAC"
-)
 DETECTOR_HELP = (
     "harris: Harris corners with SIFT descriptors oriented by the intensity centroid "
     "(rotation-, not scale-invariant); brisk: BRISK binary descriptors; sift; orb; asift: "

@@ -20,8 +20,6 @@ import numpy as np
 
 from sim.cli.batch import expand_inputs, run_batch
 
-HELP = "georeferenced slant-range-corrected mosaic (GeoTIFF) of side-scan recordings or folders"
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(

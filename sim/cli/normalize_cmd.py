@@ -17,11 +17,6 @@ from pathlib import Path
 from sim.cli.batch import expand_inputs, run_batch
 from sim.cli.common import print_json, writable_file
 
-HELP = (
-    "normalize side-scan waterfalls (recordings, images or folders) with MIRA or DCP; "
-    "print SIQEM before/after"
-)
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(

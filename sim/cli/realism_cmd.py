@@ -7,12 +7,6 @@ import argparse
 import json
 import sys
 
-from sim.cli.realism_io import first_return_for, load_any, parse_pings
-from slam.realism.compare import compare, format_table, json_ready
-from slam.realism.statistics import waterfall_statistics
-
-HELP = "compare the realism statistics of two side-scan waterfalls (SIM against REAL)"
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     for name, what in (("sim", "simulated"), ("real", "real")):
@@ -53,6 +47,11 @@ def recording_summary(rec, stats) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    # scipy.stats, cv2, scikit-image: imported here, not for `undersea realism --help`
+    from sim.cli.realism_io import first_return_for, load_any, parse_pings
+    from slam.realism.compare import compare, format_table, json_ready
+    from slam.realism.statistics import waterfall_statistics
+
     try:
         recs, stats = {}, {}
         for name in ("sim", "real"):

@@ -16,7 +16,6 @@ from pathlib import Path
 
 from sim.cli.common import finite_float, print_json
 
-HELP = "run a scenario headless (run), the default scenario (demo), or list built-ins (scenarios)"
 DEFAULT_SCENARIO = "shipwreck-survey"
 
 DEMO_OUT = Path("runs") / "demo"
@@ -26,12 +25,6 @@ DEMO_OVERRIDES = {
     "duration_s": 60.0,
     "vehicles[0].start.position": [-40.0, -30.0, -22.0],
     "vehicles[0].mission.center": [30.0, 0.0],
-}
-
-COMMAND_HELPS = {
-    "run": "run a scenario headless: writes DIR/recording.rrd, DIR/metrics.json and figures",
-    "demo": f"a one-minute survey over a wreck into ./{DEMO_OUT} (--full: the 450 s survey)",
-    "scenarios": "list the built-in scenarios",
 }
 
 #: what each output file is, printed after a run
@@ -44,7 +37,6 @@ OUTPUT_FILES = {
 
 
 def add_command_arguments(name: str, parser: argparse.ArgumentParser) -> None:
-    parser.description = COMMAND_HELPS[name]
     if name == "scenarios":
         parser.add_argument("--json", action="store_true", help="print the list as JSON")
         return

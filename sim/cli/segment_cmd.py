@@ -11,8 +11,6 @@ from pathlib import Path
 
 from sim.cli.common import finite_float, print_json
 
-HELP = "segment sonar images (improved Otsu TSM or baselines); landmarks, thresholds, scores"
-
 MASK_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".pgm")
 
 

@@ -12,8 +12,6 @@ import json
 
 from sim.cli.common import CliError, print_json
 
-HELP = "run the reference's simulated SLAM experiments (dense-loop, line, segmentation-loop)"
-
 _EXPERIMENTS = ("dense-loop", "line", "segmentation-loop")
 _FILTERS = ("aekf", "fastslam2", "isam2", "aekf-submap", "aekf-robocentric")
 

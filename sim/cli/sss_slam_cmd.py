@@ -11,11 +11,6 @@ from sim.cli.common import finite_float, print_json
 from sim.jsonsafe import dumps
 from slam.estimators import ESTIMATORS
 
-HELP = (
-    "run the segmentation front end and SLAM on a side-scan recording (XTF, JSF, Humminbird, "
-    "Lowrance, Garmin; needs its navigation) or FLS .npy frames + JSON sidecar"
-)
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", help="side-scan recording (.xtf .jsf .DAT .sl2 .sl3 .rsd) with per-ping "

@@ -9,8 +9,6 @@ from pathlib import Path
 from sim.cli.common import print_json
 from sim.jsonsafe import dumps
 
-HELP = "run Monte Carlo variants of a scenario or SLAM experiment in parallel and aggregate metrics"
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(

@@ -6,8 +6,6 @@ import argparse
 
 from sim.cli.common import finite_float, print_json, writable_file
 
-HELP = "UWSN-DT map-fusion demo (3000 m field, 1000 nodes, scans at (500,500) and (600,600))"
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0)

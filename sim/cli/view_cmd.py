@@ -23,8 +23,6 @@ from pathlib import Path
 
 from sim.cli.common import CliError
 
-HELP = "open a recording (.rrd or a run directory) in the rerun viewer (--web: in a browser)"
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("path", help="recording.rrd, or a run directory containing recording.rrd")
