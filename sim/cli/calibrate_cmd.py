@@ -188,6 +188,15 @@ def leg_altitudes(rec, legs: int, max_range: float, mode: str) -> tuple[float, .
     return tuple(out)
 
 
+def _unfixed(args, free: tuple[Parameter, ...]) -> tuple[Parameter, ...]:
+    """The free parameters without those ``--fix`` holds at the preset's values."""
+    fixed = {n for n in args.fix.split(",") if n}
+    unknown = fixed - {p.name for p in free}
+    if unknown:
+        raise ValueError(f"--fix {sorted(unknown)}: not free parameters of --model {args.model}")
+    return tuple(p for p in free if p.name not in fixed)
+
+
 def _model(args, altitude: float, max_range: float, samples: int, target, legs=(), side=None):
     """(simulate callable, parameters, statistics config of the model's images); ``side``:
     a per-side fit's side (the solved gain then clips that side's fraction on both)."""
@@ -198,7 +207,7 @@ def _model(args, altitude: float, max_range: float, samples: int, target, legs=(
             water_column_fraction=min(max(altitude / max_range, 0.05), 0.8),
             seed=args.seed,
         )
-        return model, PARAMETERS, RealismConfig(full_scale=FULL_SCALE)
+        return model, _unfixed(args, PARAMETERS), RealismConfig(full_scale=FULL_SCALE)
     from sim.realism.survey import (  # mujoco only for this model
         GainProfiledSurvey,
         RaycastSurvey,
@@ -225,11 +234,7 @@ def _model(args, altitude: float, max_range: float, samples: int, target, legs=(
         + (NOISE_PARAMETER,) * args.fit_noise
         + (SLOPE_PARAMETER,) * args.micro_slope
     )
-    fixed = {n for n in args.fix.split(",") if n}
-    unknown = fixed - {p.name for p in free}
-    if unknown:
-        raise ValueError(f"--fix {sorted(unknown)}: not free parameters of --model {args.model}")
-    free = tuple(p for p in free if p.name not in fixed)
+    free = _unfixed(args, free)
     model = survey
     if args.model == "raycast" and args.gain == "solve":
         sat = (target.port.saturation, target.starboard.saturation)
@@ -274,7 +279,8 @@ def preset_toml(args, values, before, after, meta, base=None) -> str:
     else:
         lines += ["[sonar]", f"preset = {_toml_value(name)}", "", "[sonar.overrides]"]
         lines += [f"{k} = {_toml_value(v)}" for k, v in kept.items() if k not in fitted]
-    lines += toml_override_lines(values, _toml_value)
+    table = "statistical_model" if args.model == "statistical" else "sonar.overrides"
+    lines += toml_override_lines(values, _toml_value, table)
     lines += ["", "[calibration]"]
     lines += [f"{k} = {_toml_value(v)}" for k, v in meta.items()]
     for when, st in (("before", before), ("after", after)):

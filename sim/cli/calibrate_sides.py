@@ -59,13 +59,15 @@ def side_values(fits: list[SideFit]) -> dict[str | None, dict[str, float]]:
     return {f.side: dict(f.best.values) for f in fits if f.best is not None}
 
 
-def toml_override_lines(values: dict[str | None, dict[str, float]], fmt) -> list[str]:
-    """The fitted values as preset lines: under ``[sonar.overrides]`` for one fit, else
-    one ``[sonar.overrides.<side>]`` table per side (``fmt`` formats a TOML value)."""
+def toml_override_lines(
+    values: dict[str | None, dict[str, float]], fmt, table: str = "sonar.overrides"
+) -> list[str]:
+    """The fitted values as preset lines: under the current table (``table``) for one
+    fit, else one ``[<table>.<side>]`` table per side (``fmt`` formats a TOML value)."""
     if set(values) == {None}:
         return [f"{k} = {fmt(float(v))}" for k, v in values[None].items()]
     lines: list[str] = []
     for side in SIDES:
-        lines += ["", f"[sonar.overrides.{side}]"]
+        lines += ["", f"[{table}.{side}]"]
         lines += [f"{k} = {fmt(float(v))}" for k, v in values[side].items()]
     return lines
