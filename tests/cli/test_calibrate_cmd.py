@@ -98,24 +98,27 @@ def test_missing_range_is_named(tmp_path, capsys):
 
 
 def test_per_side_fit_writes_each_sides_values(tmp_path, capsys):
-    """A recording whose sides differ by a known texture (port 1 dB, starboard 3 dB,
-    drawn with another seed): `--per-side` converges on each side and writes each side's
-    texture in its own table, near that side's truth (the other parameters held at the
-    truth with --fix, through a start preset... the statistical model starts from its
-    own start values, so they are left free here)."""
+    """A recording whose sides differ by a known gain and texture (port −14 dB / 0.5 dB,
+    starboard −6 dB / 2 dB; the other parameters at the model's start values, held there
+    with --fix; drawn with another seed): `--per-side` converges on each side and writes
+    each side's values in its own table, near that side's truth."""
     s = 320
     model = StatisticalSideScan(pings=96, samples_per_side=s, seed=7)
-    port, stbd = model(TRUTH | {"texture_db": 1.0}), model(TRUTH | {"texture_db": 3.0})
+    truth = {"port": (-14.0, 0.5), "starboard": (-6.0, 2.0)}
+    port, stbd = (model({"gain_db": g, "texture_db": t}) for g, t in truth.values())
     rec = _recording(tmp_path / "rec.npz", np.concatenate([port[:, :s], stbd[:, s:]], axis=1))
     out = tmp_path / "sides.toml"
     args = ["calibrate", str(rec), "--model", "statistical", "--out", str(out), "--json"]
     args += ["--pings", "all", "--report-pings", "all", "--sim-pings", "96", "--per-side"]
+    args += ["--fix", "corr_range,corr_ping,water_column_db,looks", "--good-enough", "0"]
     assert main(args) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["after"]["all_within"] is True and doc["calibration"]["per_side"] is True
     t = tomllib.loads(out.read_text())["statistical_model"]
-    assert t["port"]["texture_db"] == pytest.approx(1.0, abs=0.6)
-    assert t["starboard"]["texture_db"] == pytest.approx(3.0, abs=0.6)
+    for side, (gain, texture) in truth.items():
+        assert set(t[side]) == {"gain_db", "texture_db"}
+        assert t[side]["gain_db"] == pytest.approx(gain, abs=1.0), side
+        assert t[side]["texture_db"] == pytest.approx(texture, abs=0.5), side
 
 
 def test_fix_holds_a_parameter_and_an_unknown_one_is_named(tmp_path, capsys):
