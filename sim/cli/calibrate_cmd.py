@@ -18,12 +18,19 @@ from pathlib import Path
 import numpy as np
 
 from sim.atomic import atomic_write
-from sim.cli.calibrate_sides import SideFit, combine, side_values, stitch, toml_override_lines
+from sim.cli.calibrate_sides import (
+    SideFit,
+    leg_altitudes,
+    model_first_return,
+    report_fits,
+    side_values,
+    survey_geometry,
+    toml_override_lines,
+)
 from sim.cli.realism_io import first_return_for, load_any, parse_pings
-from slam.realism.bottom import first_bottom_return
 from slam.realism.calibration import CalibrationError, CalibrationResult, Parameter, calibrate
 from slam.realism.compare import compare, format_table, json_ready
-from slam.realism.statistics import RealismConfig, split_sides, waterfall_statistics
+from slam.realism.statistics import RealismConfig, waterfall_statistics
 from slam.realism.synthetic import FULL_SCALE, PARAMETERS, StatisticalSideScan
 
 HELP = "fit a side-scan preset's realism levels to a real recording; write a preset TOML"
@@ -155,39 +162,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
-def survey_geometry(rec, altitude: float | None, max_range: float | None) -> tuple[float, float]:
-    """(altitude m, max slant range m) from the flags, else from the recording (nav
-    altitude median; else the median first bottom return × range per sample)."""
-    rng_m = max_range or rec.slant_range_m
-    if not rng_m or not math.isfinite(rng_m) or rng_m <= 0:
-        raise ValueError(f"{rec.source}: slant range unknown: give --max-range (m)")
-    if altitude is None and rec.altitude_m is not None:
-        a = rec.altitude_m[rec.altitude_m > 0]
-        altitude = float(np.median(a)) if a.size else None
-    if altitude is None:
-        s = rec.intensity.shape[1] // 2
-        first = [first_bottom_return(side).first_return for side in split_sides(rec.intensity)]
-        altitude = float(np.nanmedian(np.concatenate(first))) * rng_m / s
-    if not 0 < altitude < rng_m:
-        raise ValueError(f"altitude {altitude:.2f} m is not inside the range (0, {rng_m:g}) m")
-    return float(altitude), float(rng_m)
-
-
-def leg_altitudes(rec, legs: int, max_range: float, mode: str) -> tuple[float, ...]:
-    """Per-leg altitudes (m) flying the recording's altitude track: the median positive
-    nav altitude of each of ``legs`` consecutive chunks of its pings (clipped to
-    [0.5, 0.95·range]); () for ``mode`` "median" or a recording without altitude."""
-    if mode != "legs" or rec.altitude_m is None or legs < 2:
-        return ()
-    out = []
-    for chunk in np.array_split(np.asarray(rec.altitude_m, float), legs):
-        ok = chunk[chunk > 0]
-        if ok.size == 0:
-            return ()
-        out.append(float(np.clip(np.median(ok), 0.5, 0.95 * max_range)))
-    return tuple(out)
-
-
 def _unfixed(args, free: tuple[Parameter, ...]) -> tuple[Parameter, ...]:
     """The free parameters without those ``--fix`` holds at the preset's values."""
     fixed = {n for n in args.fix.split(",") if n}
@@ -290,33 +264,6 @@ def preset_toml(args, values, before, after, meta, base=None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _held_out(args, simulate, values, rep_rec, report, model_cfg, side=None):
-    """(altitude m, statistics, image) of the calibrated preset with the report pings: the
-    ray-cast survey flown again at the report pings' own altitude with the fitted values
-    (the gain as written, not solved again); the statistical model's image as fitted."""
-    survey = getattr(simulate, "survey", simulate)
-    spec = getattr(survey, "spec", None)
-    if spec is None:
-        img = simulate(values)
-        return float("nan"), waterfall_statistics(img, model_cfg), img
-    altitude, _ = survey_geometry(rep_rec, args.altitude, args.max_range)
-    legs = leg_altitudes(rep_rec, spec.segments, spec.max_range_m, args.altitude_track)
-    again = type(survey)(replace(spec, altitude_m=altitude, leg_altitudes_m=legs))
-    img = again(values)
-    fr = None
-    if args.bottom == "altitude":  # as in the fit: the survey's known altitude
-        fr = model_first_return(again.spec)
-    return altitude, waterfall_statistics(img, model_cfg, first_return=fr), img
-
-
-def model_first_return(spec) -> np.ndarray:
-    """(pings,) first-return sample of the survey's flat seabed: each leg's altitude over
-    the range per sample."""
-    per_leg = spec.pings // spec.segments
-    alt = np.repeat([spec.leg_altitude(k) for k in range(spec.segments)], per_leg)
-    return alt / (spec.max_range_m / spec.samples_per_side)
-
-
 def _fit(args, geometry, samples: int, target, side=None) -> SideFit:
     """One calibration (``side`` None: both sides; else that side alone), the solved gain
     added to the values."""
@@ -347,23 +294,6 @@ def _fit(args, geometry, samples: int, target, side=None) -> SideFit:
     return SideFit(side, simulate, model_cfg, result)
 
 
-def _report(args, fits, rep_rec, report):
-    """(altitude m of the report pings, their statistics per side combined, the fit
-    pings' statistics after, before, the stitched fit image) of the fits' best points."""
-    held, after, imgs = {}, {}, {}
-    alt = float("nan")
-    for f in fits:
-        best, key = f.best, f.side or "both"
-        after[key] = best.after
-        alt, held[key], _ = _held_out(
-            args, f.simulate, best.values, rep_rec, report, f.model_config
-        )
-        if args.save_sim:
-            imgs[key] = np.asarray(f.simulate(best.values), dtype=np.float32)
-    img = stitch(imgs) if imgs else None
-    return alt, combine(held), combine(after), fits[0].best.before, img
-
-
 def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     try:
@@ -392,7 +322,7 @@ def run(args: argparse.Namespace) -> int:
         if any(f.best is None for f in failed):
             raise failed[0].outcome
         values = side_values(fits)
-        rep_alt, held_out, after_st, before_st, img = _report(args, fits, rep_rec, report)
+        rep_alt, held_out, after_st, before_st, img = report_fits(args, fits, rep_rec)
         if failed:
             for side, vals in values.items():
                 vs = ", ".join(f"{k} = {v:.4g}" for k, v in vals.items())
