@@ -18,11 +18,19 @@ from pathlib import Path
 import numpy as np
 
 from sim.atomic import atomic_write
+from sim.cli.calibrate_sides import (
+    SideFit,
+    leg_altitudes,
+    model_first_return,
+    report_fits,
+    side_values,
+    survey_geometry,
+    toml_override_lines,
+)
 from sim.cli.realism_io import first_return_for, load_any, parse_pings
-from slam.realism.bottom import first_bottom_return
-from slam.realism.calibration import CalibrationError, Parameter, calibrate
+from slam.realism.calibration import CalibrationError, CalibrationResult, Parameter, calibrate
 from slam.realism.compare import compare, format_table, json_ready
-from slam.realism.statistics import RealismConfig, split_sides, waterfall_statistics
+from slam.realism.statistics import RealismConfig, waterfall_statistics
 from slam.realism.synthetic import FULL_SCALE, PARAMETERS, StatisticalSideScan
 
 #: the ray-cast model's free parameters (sim.sonar.effects.RealismConfig fields).
@@ -115,6 +123,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="ray-cast models: also fit the seabed's micro-relief (micro_slope_deg)",
     )
+    parser.add_argument(
+        "--per-side",
+        action="store_true",
+        help="fit port and starboard each on their own (one transducer and receive channel "
+        "per side): the preset gets [sonar.overrides.port] and [sonar.overrides.starboard]",
+    )
+    parser.add_argument(
+        "--fix",
+        default="",
+        help="comma-separated free parameters to hold at the preset's values",
+    )
     parser.add_argument("--sim-pings", type=int, default=128, help="pings per simulated run")
     parser.add_argument(
         "--sim-legs",
@@ -141,41 +160,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
-def survey_geometry(rec, altitude: float | None, max_range: float | None) -> tuple[float, float]:
-    """(altitude m, max slant range m) from the flags, else from the recording (nav
-    altitude median; else the median first bottom return × range per sample)."""
-    rng_m = max_range or rec.slant_range_m
-    if not rng_m or not math.isfinite(rng_m) or rng_m <= 0:
-        raise ValueError(f"{rec.source}: slant range unknown: give --max-range (m)")
-    if altitude is None and rec.altitude_m is not None:
-        a = rec.altitude_m[rec.altitude_m > 0]
-        altitude = float(np.median(a)) if a.size else None
-    if altitude is None:
-        s = rec.intensity.shape[1] // 2
-        first = [first_bottom_return(side).first_return for side in split_sides(rec.intensity)]
-        altitude = float(np.nanmedian(np.concatenate(first))) * rng_m / s
-    if not 0 < altitude < rng_m:
-        raise ValueError(f"altitude {altitude:.2f} m is not inside the range (0, {rng_m:g}) m")
-    return float(altitude), float(rng_m)
+def _unfixed(args, free: tuple[Parameter, ...]) -> tuple[Parameter, ...]:
+    """The free parameters without those ``--fix`` holds at the preset's values."""
+    fixed = {n for n in args.fix.split(",") if n}
+    unknown = fixed - {p.name for p in free}
+    if unknown:
+        raise ValueError(f"--fix {sorted(unknown)}: not free parameters of --model {args.model}")
+    return tuple(p for p in free if p.name not in fixed)
 
 
-def leg_altitudes(rec, legs: int, max_range: float, mode: str) -> tuple[float, ...]:
-    """Per-leg altitudes (m) flying the recording's altitude track: the median positive
-    nav altitude of each of ``legs`` consecutive chunks of its pings (clipped to
-    [0.5, 0.95·range]); () for ``mode`` "median" or a recording without altitude."""
-    if mode != "legs" or rec.altitude_m is None or legs < 2:
-        return ()
-    out = []
-    for chunk in np.array_split(np.asarray(rec.altitude_m, float), legs):
-        ok = chunk[chunk > 0]
-        if ok.size == 0:
-            return ()
-        out.append(float(np.clip(np.median(ok), 0.5, 0.95 * max_range)))
-    return tuple(out)
-
-
-def _model(args, altitude: float, max_range: float, samples: int, target, legs=()):
-    """(simulate callable, parameters, statistics config of the model's images)."""
+def _model(args, altitude: float, max_range: float, samples: int, target, legs=(), side=None):
+    """(simulate callable, parameters, statistics config of the model's images); ``side``:
+    a per-side fit's side (the solved gain then clips that side's fraction on both)."""
     if args.model == "statistical":
         model = StatisticalSideScan(
             pings=max(args.sim_pings, 32),
@@ -183,7 +179,7 @@ def _model(args, altitude: float, max_range: float, samples: int, target, legs=(
             water_column_fraction=min(max(altitude / max_range, 0.05), 0.8),
             seed=args.seed,
         )
-        return model, PARAMETERS, RealismConfig(full_scale=FULL_SCALE)
+        return model, _unfixed(args, PARAMETERS), RealismConfig(full_scale=FULL_SCALE)
     from sim.realism.survey import (  # mujoco only for this model
         GainProfiledSurvey,
         RaycastSurvey,
@@ -210,9 +206,12 @@ def _model(args, altitude: float, max_range: float, samples: int, target, legs=(
         + (NOISE_PARAMETER,) * args.fit_noise
         + (SLOPE_PARAMETER,) * args.micro_slope
     )
+    free = _unfixed(args, free)
     model = survey
     if args.model == "raycast" and args.gain == "solve":
         sat = (target.port.saturation, target.starboard.saturation)
+        if side is not None:
+            sat = (target.sides()[side].saturation,) * 2
         model = GainProfiledSurvey(survey, sat)
         free = tuple(p for p in free if p.name != "receiver_gain_db")
     params = tuple(
@@ -233,11 +232,13 @@ def _toml_value(v) -> str:
     return json.dumps(str(v))
 
 
-def preset_toml(args, values, result, meta, base=None) -> str:
+def preset_toml(args, values, before, after, meta, base=None) -> str:
     """The preset file: [sonar] preset + overrides (scenario-ready), [calibration] record.
+    ``values``: {None: fitted values} or {side: that side's values} (``--per-side``);
     ``base``: (built-in preset, its file's overrides) when ``--preset`` was a preset file
     (the fitted values go over them)."""
     name, kept = base or (args.preset, {})
+    fitted = set().union(*(v.keys() for v in values.values()))
     lines = [
         f"# Sonar preset calibrated by `undersea calibrate` to {meta['recording']}.",
         "# In a scenario: [[vehicles.sonars]] preset = <sonar.preset>, overrides = <sonar.overrides>",
@@ -249,41 +250,46 @@ def preset_toml(args, values, result, meta, base=None) -> str:
         ]
     else:
         lines += ["[sonar]", f"preset = {_toml_value(name)}", "", "[sonar.overrides]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in kept.items() if k not in values]
-    lines += [f"{k} = {_toml_value(float(v))}" for k, v in values.items()]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in kept.items() if k not in fitted]
+    table = "statistical_model" if args.model == "statistical" else "sonar.overrides"
+    lines += toml_override_lines(values, _toml_value, table)
     lines += ["", "[calibration]"]
     lines += [f"{k} = {_toml_value(v)}" for k, v in meta.items()]
-    for when, st in (("before", result.before), ("after", result.after)):
+    for when, st in (("before", before), ("after", after)):
         for side, s in st.sides().items():
             lines += ["", f"[calibration.{when}.{side}]"]
             lines += [f"{k} = {_toml_value(v)}" for k, v in s.scalars().items()]
     return "\n".join(lines) + "\n"
 
 
-def _held_out(args, simulate, values, rep_rec, report, model_cfg):
-    """(altitude m, comparison) of the calibrated preset with the report pings: the
-    ray-cast survey flown again at the report pings' own altitude with the fitted values
-    (the gain as written, not solved again); the statistical model's image as fitted."""
-    survey = getattr(simulate, "survey", simulate)
-    spec = getattr(survey, "spec", None)
-    if spec is None:
-        return float("nan"), compare(waterfall_statistics(simulate(values), model_cfg), report)
-    altitude, _ = survey_geometry(rep_rec, args.altitude, args.max_range)
-    legs = leg_altitudes(rep_rec, spec.segments, spec.max_range_m, args.altitude_track)
-    again = type(survey)(replace(spec, altitude_m=altitude, leg_altitudes_m=legs))
-    img = again(values)
-    fr = None
-    if args.bottom == "altitude":  # as in the fit: the survey's known altitude
-        fr = model_first_return(again.spec)
-    return altitude, compare(waterfall_statistics(img, model_cfg, first_return=fr), report)
-
-
-def model_first_return(spec) -> np.ndarray:
-    """(pings,) first-return sample of the survey's flat seabed: each leg's altitude over
-    the range per sample."""
-    per_leg = spec.pings // spec.segments
-    alt = np.repeat([spec.leg_altitude(k) for k in range(spec.segments)], per_leg)
-    return alt / (spec.max_range_m / spec.samples_per_side)
+def _fit(args, geometry, samples: int, target, side=None) -> SideFit:
+    """One calibration (``side`` None: both sides; else that side alone), the solved gain
+    added to the values."""
+    altitude, max_range, legs = geometry
+    simulate, params, model_cfg = _model(args, altitude, max_range, samples, target, legs, side)
+    try:
+        result = calibrate(
+            simulate,
+            target,
+            params,
+            max_evaluations=args.max_evaluations,
+            good_enough=args.good_enough,
+            model_config=model_cfg,
+            fit_tile_texture=args.model != "statistical",
+            fit_far_range=args.low_grazing and args.model != "statistical",
+            model_first_return=(
+                model_first_return(simulate.spec)
+                if args.bottom == "altitude" and args.model != "statistical"
+                else None
+            ),
+            sides=(side,) if side else ("port", "starboard"),
+        )
+    except CalibrationError as exc:
+        return SideFit(side, simulate, model_cfg, exc)
+    if hasattr(simulate, "gain_for"):  # the solved gain belongs to the preset too
+        gain = simulate.gain_for(result.values)
+        result = replace(result, values={**result.values, "receiver_gain_db": gain})
+    return SideFit(side, simulate, model_cfg, result)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -305,27 +311,25 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"REAL {args.real}: {exc}") from exc
         altitude, max_range = survey_geometry(fit_rec, args.altitude, args.max_range)
         legs = leg_altitudes(fit_rec, args.sim_legs, max_range, args.altitude_track)
-        simulate, params, model_cfg = _model(
-            args, altitude, max_range, rec.intensity.shape[1] // 2, target, legs
-        )
-        result = calibrate(
-            simulate,
-            target,
-            params,
-            max_evaluations=args.max_evaluations,
-            good_enough=args.good_enough,
-            model_config=model_cfg,
-            fit_tile_texture=args.model != "statistical",
-            fit_far_range=args.low_grazing and args.model != "statistical",
-            model_first_return=(
-                model_first_return(simulate.spec)
-                if args.bottom == "altitude" and args.model != "statistical"
-                else None
-            ),
-        )
-        if hasattr(simulate, "gain_for"):  # the solved gain belongs to the preset too
-            gain = simulate.gain_for(result.values)
-            result = replace(result, values={**result.values, "receiver_gain_db": gain})
+        samples = rec.intensity.shape[1] // 2
+        fits = [
+            _fit(args, (altitude, max_range, legs), samples, target, side)
+            for side in (("port", "starboard") if args.per_side else (None,))
+        ]
+        failed = [f for f in fits if not isinstance(f.outcome, CalibrationResult)]
+        if any(f.best is None for f in failed):
+            raise failed[0].outcome
+        values = side_values(fits)
+        rep_alt, held_out, after_st, before_st, img = report_fits(args, fits, rep_rec)
+        if failed:
+            for side, vals in values.items():
+                vs = ", ".join(f"{k} = {v:.4g}" for k, v in vals.items())
+                print(f"best found{f' ({side})' if side else ''}: {vs}", file=sys.stderr)
+            print(format_table(compare(after_st, target)), file=sys.stderr)
+            print(f"report pings {rep_sl.start}:{rep_sl.stop} at {rep_alt:.2f} m:", file=sys.stderr)
+            print(format_table(compare(held_out, report)), file=sys.stderr)
+            msg = "; ".join(f"{f.side or 'both sides'}: {f.outcome}" for f in failed)
+            raise CalibrationError(msg)
     except (ValueError, CalibrationError) as exc:
         best = getattr(exc, "best", None)
         if best is not None:  # show where the fit got to, on stderr
@@ -334,53 +338,58 @@ def run(args: argparse.Namespace) -> int:
             print(format_table(compare(best.after, target)), file=sys.stderr)
         print(f"undersea calibrate: {exc}; nothing written", file=sys.stderr)
         return 2
+    results = [f.outcome for f in fits]
     meta = {
         "recording": str(args.real),
         "fit_pings": [fit_sl.start, fit_sl.stop],
         "report_pings": [rep_sl.start, rep_sl.stop],
         "model": args.model,
+        "per_side": bool(args.per_side),
         "altitude_m": altitude,
         "leg_altitudes_m": list(legs),
         "max_range_m": max_range,
-        "samples_per_side": rec.intensity.shape[1] // 2,
+        "samples_per_side": samples,
         "sim_pings": args.sim_pings,
         "sim_legs": args.sim_legs,
         "seed": args.seed,
-        "evaluations": result.evaluations,
-        "loss_before": result.initial_loss,
-        "loss_after": result.loss,
+        "evaluations": sum(r.evaluations for r in results),
+        "loss_before": float(np.mean([r.initial_loss for r in results])),
+        "loss_after": float(np.mean([r.loss for r in results])),
     }
-    base = getattr(simulate, "base", None)
-    base = (base, simulate.base_overrides) if base else None
-    atomic_write(out, preset_toml(args, result.values, result, meta, base).encode())
+    sim0 = fits[0].simulate
+    base = getattr(sim0, "base", None)
+    base = (base, sim0.base_overrides) if base else None
+    atomic_write(out, preset_toml(args, values, before_st, after_st, meta, base).encode())
     if args.save_sim:
-        np.save(args.save_sim, np.asarray(simulate(result.values), dtype=np.float32))
-    before, after = compare(result.before, target), compare(result.after, target)
-    rep_alt, held_out = _held_out(args, simulate, result.values, rep_rec, report, model_cfg)
+        np.save(args.save_sim, img)
+    before, after = compare(before_st, target), compare(after_st, target)
+    held = compare(held_out, report)
     if args.json:
         doc = {
-            "values": result.values,
-            "initial_values": result.initial_values,
+            "values": values if args.per_side else values[None],
+            "initial_values": results[0].initial_values,
             "calibration": meta,
             "before": before.to_dict(),
             "after": after.to_dict(),
-            "report_pings": held_out.to_dict(),
+            "report_pings": held.to_dict(),
             "out": str(out),
         }
         print(json.dumps(json_ready(doc), allow_nan=False, indent=1))
         return 0
     print(
         f"REAL {args.real}: fit on pings {fit_sl.start}:{fit_sl.stop}, model {args.model}, "
-        f"altitude {altitude:.2f} m, range {max_range:.2f} m, {result.evaluations} runs"
+        f"altitude {altitude:.2f} m, range {max_range:.2f} m, {meta['evaluations']} runs"
     )
-    print("fitted: " + ", ".join(f"{k} = {v:.4g}" for k, v in result.values.items()))
+    for side, vals in values.items():
+        vs = ", ".join(f"{k} = {v:.4g}" for k, v in vals.items())
+        print(f"fitted{f' ({side})' if side else ''}: {vs}")
     for title, c in (
         ("BEFORE (preset values) vs REAL fit pings", before),
         ("AFTER (calibrated) vs REAL fit pings", after),
         (
             f"AFTER vs REAL report pings {rep_sl.start}:{rep_sl.stop} (simulated at their "
             f"altitude, {rep_alt:.2f} m)",
-            held_out,
+            held,
         ),
     ):
         print(f"\n== {title}\n" + format_table(c))

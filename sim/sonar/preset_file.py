@@ -11,7 +11,12 @@ overrides = { max_range = 40.0 }          # applied over the file's own override
 
 A preset file holds ``[sonar] preset = <built-in name>`` and ``[sonar.overrides]`` (flat
 scalars, any field ``sim.sonar.config.preset`` takes); everything else (the
-``[calibration]`` record) is ignored here.
+``[calibration]`` record) is ignored here. A per-side calibration (``undersea calibrate
+--per-side``: one transducer and receive channel per side) adds ``[sonar.overrides.port]``
+and ``[sonar.overrides.starboard]``, each side's values over the common ones
+(``PresetFile.config(side=...)``). The simulator's side-scan takes one config for both
+sides, so a scenario cannot use such a file yet: ``load_preset_file`` refuses it unless
+``per_side=True``.
 """
 
 from __future__ import annotations
@@ -23,20 +28,30 @@ from typing import Any
 
 from sim.sonar.config import PRESETS, preset
 
+SIDES = ("port", "starboard")
 SONAR_ASSETS = Path(__file__).resolve().parents[2] / "assets" / "sonars"
 
 
 @dataclass(frozen=True)
 class PresetFile:
-    """A preset file decoded: base (built-in preset name), overrides, source (the file)."""
+    """A preset file decoded: base (built-in preset name), overrides, source (the file),
+    per-side overrides ({"port": {...}, "starboard": {...}} or empty)."""
 
     base: str
     overrides: dict[str, Any] = field(default_factory=dict)
     source: str = ""
+    side_overrides: dict[str, dict[str, Any]] = field(default_factory=dict)
 
-    def config(self, **more: Any) -> Any:
-        """The sonar config: the base preset with the file's overrides, then ``more``."""
-        return preset(self.base, **{**self.overrides, **more})
+    def config(self, side: str | None = None, **more: Any) -> Any:
+        """The sonar config: the base preset with the file's overrides, then ``side``'s
+        own (a per-side file needs ``side``: "port" or "starboard"), then ``more``."""
+        if self.side_overrides and side not in SIDES:
+            raise ValueError(
+                f"sonar preset file {self.source!r} has per-side overrides: side = {side!r}; "
+                f"allowed: {', '.join(SIDES)}"
+            )
+        own = self.side_overrides.get(side, {}) if side else {}
+        return preset(self.base, **{**self.overrides, **own, **more})
 
 
 def calibrated_presets() -> dict[str, Path]:
@@ -51,8 +66,16 @@ def is_preset_file(name: str) -> bool:
     return name in calibrated_presets() or name.endswith(".toml")
 
 
-def load_preset_file(name_or_path: str | Path) -> PresetFile:
-    """Read a preset file by shipped stem or path; ValueError names the file and the field."""
+def _scalars(table: Any, path: Path, where: str) -> dict[str, Any]:
+    if not isinstance(table, dict) or any(isinstance(v, dict | list) for v in table.values()):
+        raise ValueError(f"sonar preset file {str(path)!r}: [{where}] must be a table of scalars")
+    return dict(table)
+
+
+def load_preset_file(name_or_path: str | Path, per_side: bool = False) -> PresetFile:
+    """Read a preset file by shipped stem or path; ValueError names the file and the field.
+    ``per_side``: accept per-side overrides (``[sonar.overrides.port]`` / ``.starboard``;
+    refused otherwise, since a scenario's side-scan takes one config for both sides)."""
     s = str(name_or_path)
     path = calibrated_presets().get(s, Path(s))
     if not path.is_file():
@@ -82,13 +105,26 @@ def load_preset_file(name_or_path: str | Path) -> PresetFile:
             f"preset; allowed: {', '.join(sorted(PRESETS))}"
         )
     ov = sonar.get("overrides", {})
-    if not isinstance(ov, dict) or any(isinstance(v, dict | list) for v in ov.values()):
+    if not isinstance(ov, dict):
+        raise ValueError(f"sonar preset file {str(path)!r}: [sonar.overrides] must be a table")
+    sides = {s: _scalars(ov[s], path, f"sonar.overrides.{s}") for s in SIDES if s in ov}
+    if sides and set(sides) != set(SIDES):
         raise ValueError(
-            f"sonar preset file {str(path)!r}: [sonar.overrides] must be a table of scalars"
+            f"sonar preset file {str(path)!r}: per-side overrides need both "
+            "[sonar.overrides.port] and [sonar.overrides.starboard]"
         )
-    pf = PresetFile(base=base, overrides=dict(ov), source=str(path))
-    try:
-        pf.config()
-    except (ValueError, TypeError) as exc:
-        raise ValueError(f"sonar preset file {str(path)!r}: [sonar.overrides]: {exc}") from exc
+    if sides and not per_side:
+        raise ValueError(
+            f"sonar preset file {str(path)!r} has per-side overrides ([sonar.overrides.port], "
+            "[sonar.overrides.starboard]): the simulator's side-scan takes one config for "
+            "both sides, so a scenario cannot use it yet"
+        )
+    common = _scalars({k: v for k, v in ov.items() if k not in SIDES}, path, "sonar.overrides")
+    pf = PresetFile(base=base, overrides=common, source=str(path), side_overrides=sides)
+    for side in (*SIDES,) if sides else (None,):
+        where = f"sonar.overrides.{side}" if side else "sonar.overrides"
+        try:
+            pf.config(side)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"sonar preset file {str(path)!r}: [{where}]: {exc}") from exc
     return pf

@@ -70,17 +70,21 @@ FAR_FEATURE = "far_range_db"
 
 
 def residual_keys(
-    fit_tile_texture: bool = False, fit_far_range: bool = False
+    fit_tile_texture: bool = False,
+    fit_far_range: bool = False,
+    sides: Sequence[str] = SIDES,
 ) -> tuple[tuple[str, ...], int]:
     """(residual keys, how many of them are convergence features), the seabed texture at
     the patch scale among them when ``fit_tile_texture``, the far-range level when
-    ``fit_far_range``."""
+    ``fit_far_range``; only the ``sides`` given (a per-side fit scores one side)."""
+    sides = tuple(sides)
+    if not sides or any(s not in SIDES for s in sides) or len(set(sides)) != len(sides):
+        raise ValueError(f"sides = {sides!r}; allowed: a non-empty subset of {SIDES}")
     extra = (TILE_FEATURE,) * fit_tile_texture + (FAR_FEATURE,) * fit_far_range
-    if not extra:
-        return RESIDUAL_KEYS, 2 * len(CONVERGENCE_FEATURES)
     conv = (*CONVERGENCE_FEATURES, *extra)
-    keys = tuple(f"{k}.{s}" for k in conv for s in SIDES)
-    return keys + tuple(f"headroom_db.{s}" for s in SIDES), 2 * len(conv)
+    order = tuple(s for s in SIDES if s in sides)
+    keys = tuple(f"{k}.{s}" for k in conv for s in order)
+    return keys + tuple(f"headroom_db.{s}" for s in order), len(order) * len(conv)
 
 
 class _Budget(Exception):
@@ -212,6 +216,7 @@ def calibrate(
     fit_tile_texture: bool = False,
     fit_far_range: bool = False,
     model_first_return: float | np.ndarray | None = None,
+    sides: Sequence[str] = SIDES,
 ) -> CalibrationResult:
     """Fit ``parameters`` of ``simulate`` to the ``target`` statistics.
 
@@ -226,6 +231,9 @@ def calibrate(
     ``model_first_return``: the model images' first bottom return (sample index, every
     ping, or one per ping) instead of the detector — for a model whose water column is not
     darker than its seabed (recreational displays), flown at a known altitude.
+    ``sides``: the sides scored (default both); ``("port",)`` fits the parameters to the
+    port side alone (a side-scan has one transducer and receive channel per side, so
+    per-side gain and texture are physical: fit each side on its own).
 
     Converged means every feature within ``max_residual`` tolerances (issue 11: every row
     of the table within its tolerance). ``max_evaluations`` bounds the model runs in all
@@ -241,7 +249,7 @@ def calibrate(
     if len(set(names)) != len(names):
         raise ValueError(f"parameter names must be unique, got {names}")
     cache: dict[tuple, tuple[np.ndarray, WaterfallStatistics | None, dict]] = {}
-    keys, n_conv = residual_keys(fit_tile_texture, fit_far_range)
+    keys, n_conv = residual_keys(fit_tile_texture, fit_far_range, sides)
     failed = np.full(len(keys), math.sqrt(FAILED_LOSS))
 
     def values_of(u: np.ndarray) -> dict[str, float]:

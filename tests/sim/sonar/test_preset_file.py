@@ -49,21 +49,56 @@ def test_file_written_by_calibrate_loads(tmp_path):
     import argparse
 
     from sim.cli.calibrate_cmd import preset_toml
-    from slam.realism.calibration import CalibrationResult
 
-    class _St:
-        def sides(self):
-            return {}
-
-    res = CalibrationResult({}, {}, 0.1, 1.0, {}, 3, _St(), _St())
     args = argparse.Namespace(model="raycast", preset="deepeye680d_realistic")
-    text = preset_toml(args, {"texture_db": 4.0, "range_cell_m": 0.01}, res, {"recording": "r"})
+    values = {None: {"texture_db": 4.0, "range_cell_m": 0.01}}
+    text = preset_toml(args, values, _NoStats(), _NoStats(), {"recording": "r"})
     p = tmp_path / "cal.toml"
     p.write_text(text)
     pf = load_preset_file(p)
     assert pf.base == "deepeye680d_realistic"
     assert pf.overrides == {"texture_db": 4.0, "range_cell_m": 0.01}
     assert pf.config().acoustic.realism.range_cell_m == 0.01
+
+
+class _NoStats:
+    def sides(self):
+        return {}
+
+
+def test_per_side_file_written_by_calibrate_loads_per_side_and_not_in_a_scenario(tmp_path):
+    """`undersea calibrate --per-side` writes each side's values in its own table over the
+    common overrides; read back per side they give each side's config; a scenario (one
+    config for both sides) refuses the file with a message saying why."""
+    import argparse
+
+    from sim.cli.calibrate_cmd import preset_toml
+
+    args = argparse.Namespace(model="raycast-display", preset="deepeye680d_realistic")
+    values = {
+        "port": {"texture_db": 0.5, "display_floor_db": 100.0},
+        "starboard": {"texture_db": 2.0, "display_floor_db": 96.0},
+    }
+    base = ("deepeye680d_realistic", {"frequency_hz": 455000.0, "texture_db": 1.0})
+    text = preset_toml(args, values, _NoStats(), _NoStats(), {"recording": "r"}, base)
+    p = tmp_path / "sides.toml"
+    p.write_text(text)
+    pf = load_preset_file(p, per_side=True)
+    assert pf.overrides == {"frequency_hz": 455000.0}  # the fitted texture_db is per side
+    for side, v in values.items():
+        cfg = pf.config(side)
+        assert cfg.acoustic.realism.texture_db == v["texture_db"]
+        assert cfg.acoustic.display_floor_db == v["display_floor_db"]
+        assert cfg.frequency_hz == 455000.0
+    with pytest.raises(ValueError, match="side = None"):
+        pf.config()
+    with pytest.raises(ValueError, match="one config for both sides"):
+        load_preset_file(p)
+    with pytest.raises(ScenarioError, match="per-side"):
+        parse_scenario(_scenario_with(str(p)))
+    p.write_text(text.replace("[sonar.overrides.starboard]", "[other]"))
+    with pytest.raises(ValueError, match="need both"):
+        load_preset_file(p, per_side=True)
 
 
 @pytest.mark.parametrize(
