@@ -35,9 +35,15 @@ import argparse
 import json
 import os
 import platform
-import subprocess
 import sys
 import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:  # loaded by file path (undersea bench): the checkout's root
+    sys.path.insert(0, str(REPO))
+
+from benchmarks.other_tree import json_from_tree  # noqa: E402
 
 TARGETS = {"WaypointNav-v0": 2000.0, "SonarSurvey-v0": 200.0}
 BATCH_GOAL = 20.0  # batch aggregate steps/s over the single env's, same navigation mode
@@ -96,13 +102,7 @@ def _single_in(tree: str, steps: int, **kw) -> float:
         "import json, sys; import sim.envs; from benchmarks.bench_env import _single; "
         f"print(json.dumps(_single('undersea/WaypointNav-v0', {steps}, **{kw!r})))"
     )
-    env = {**os.environ, "PYTHONPATH": tree}
-    r = subprocess.run(
-        [sys.executable, "-c", code], cwd=tree, env=env, capture_output=True, text=True
-    )
-    if r.returncode != 0:
-        raise SystemExit(f"--against {tree}: its WaypointNav run failed:\n{r.stderr[-2000:]}")
-    return float(r.stdout.strip().splitlines()[-1])
+    return float(json_from_tree(tree, code, "WaypointNav run"))
 
 
 def _rss_mb() -> float:

@@ -44,6 +44,12 @@ from pathlib import Path
 
 import numpy as np
 
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:  # loaded by file path (undersea bench): the checkout's root
+    sys.path.insert(0, str(REPO))
+
+from benchmarks.other_tree import json_from_tree  # noqa: E402
+
 # The reference's MATLAB run times (thesis ch. 6): AEKF, FastSLAM 2.0 (s).
 REFERENCE_MATLAB_S = {"dense-loop": (137.937051, 525.526820), "line": (99.8, 594.1)}
 
@@ -181,13 +187,7 @@ def _reference_cpu_in(tree: str, runs: int) -> list[float]:
         f"print(json.dumps([run_once(spec, 'aekf', r, {{'preset': 'reference'}}).cpu_s "
         f"for r in range({runs})]))\n"
     )
-    env = {**os.environ, "PYTHONPATH": tree}
-    r = subprocess.run(
-        [sys.executable, "-c", code], cwd=tree, env=env, capture_output=True, text=True
-    )
-    if r.returncode != 0:
-        raise SystemExit(f"--against {tree}: its AEKF run failed:\n{r.stderr[-2000:]}")
-    return [float(v) for v in json.loads(r.stdout.strip().splitlines()[-1])]
+    return [float(v) for v in json_from_tree(tree, code, "AEKF run")]
 
 
 def _cpu_ratio(d: dict) -> float:
