@@ -5,7 +5,6 @@ with a message without it; the helpers it judges by are tested here on known inp
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import subprocess
 import sys
@@ -13,19 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from script_module import load_script
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "scripts" / "check_viewer_browser.py"
-
-
-def _module():
-    spec = importlib.util.spec_from_file_location("check_viewer_browser", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-C = _module()
+C = load_script("check_viewer_browser")
 
 
 def test_views_of_the_default_blueprint_read_back(tmp_path):

@@ -4,27 +4,15 @@ percentile ranks are counted by hand, and the selection rule on a hand-made grid
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from script_module import load_script
 
 from slam.frontend.segmentation.fragments import regions_from_labels
 
-REPO = Path(__file__).resolve().parents[2]
-SCRIPT = REPO / "scripts" / "sdvd_stage2_gbm_study.py"
-
-
-def _module():
-    spec = importlib.util.spec_from_file_location("sdvd_stage2_gbm_study", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-S = _module()
+S = load_script("sdvd_stage2_gbm_study")
 
 
 @pytest.fixture

@@ -145,15 +145,10 @@ def test_nees_comparison_script_writes_one_curve_per_variant(tmp_path, capsys):
     """scripts/nees_comparison.py on 2 short runs (line map, dt 0.1 s: 370 scans, a
     quarter of dt 0.025's): one printed line and one plotted curve per variant; the
     printed time-mean NEES equals the run's own average."""
-    import importlib.util
-    from pathlib import Path
-
     import matplotlib.image as mpimg
+    from script_module import load_script
 
-    path = Path(__file__).resolve().parents[3] / "scripts" / "nees_comparison.py"
-    spec = importlib.util.spec_from_file_location("nees_comparison", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("nees_comparison")
     out = tmp_path / "nees.png"
     args = ["--experiment", "line", "--dt", "0.1", "--runs", "2", "--out", str(out)]
     args += ["--variant", "plain:preset=reference", "--variant", "fej:jacobians=fej"]
