@@ -211,6 +211,17 @@ def tvg_gain(r: np.ndarray, alpha_db_m: float, mode: str, exponent: float = 4.0)
     return g
 
 
+def bottom_held_tvg(tvg: np.ndarray, tvg_at_bottom: float) -> np.ndarray:
+    """A TVG curve referenced to the first bottom return: the transducer-referenced curve
+    ``tvg`` (non-decreasing in range) held at its value at the bottom return,
+    ``tvg_at_bottom`` = tvg(r_b), for every range short of it. G(r) = tvg(max(r, r_b)):
+    the water column gets the gain the recorder gives the bottom return (flat in range,
+    following the altitude as r_b^n), the seabed the ordinary law. Side-scan recorders
+    start their TVG ramp at the bottom track so that the water column is not amplified
+    (docs/realism.md, "Recorder gain")."""
+    return np.maximum(tvg, tvg_at_bottom)
+
+
 def compress_log(intensity: np.ndarray, floor_db: float, dynamic_range_db: float) -> np.ndarray:
     """Display compression: 10·log10(I) mapped from [floor, floor + range] dB to [0, 1]."""
     db = np.maximum(intensity, 1e-30)

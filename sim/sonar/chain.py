@@ -16,6 +16,7 @@ from sim.sonar.mount import sensor_depth
 from sim.sonar.receiver import (
     ambient_noise_db,
     digitise,
+    ping_tvg,
     surface_multipath,
     surface_return,
     two_way_beam,
@@ -131,7 +132,7 @@ class SideScanChain:
             s = s + self.noise  # mean intensities only: no draws (as the plain path)
         else:
             s = s + self.noise * rng.standard_exponential(size=s.shape)
-        s = s * self.tvg[None, :]
+        s = s * ping_tvg(self.tvg, altitude, self.rz, self.m.alpha_db_m, self.ac.tvg)[None, :]
         s = digitise(s, self.rz.receiver_gain_db, self.rz.bit_depth, self.rz.full_scale_db)
         if self.ac.log_compression:
             floor = self.ac.display_floor_db

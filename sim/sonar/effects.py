@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 SeabedModel = Literal["lambert", "sediment"]
+TvgReference = Literal["transducer", "bottom"]
 SEDIMENT_NAMES = ("mud", "sand", "gravel", "rock")
 
 
@@ -59,7 +60,10 @@ class RealismConfig:
     surface-bounce path of the seabed echo (None = off); upward_sidelobe_db: floor of the
     one-way vertical pattern above horizontal (side-scan staves are baffled on top),
     used by both surface terms; receiver_gain_db; tvg_exponent: the TVG's spreading law
-    r^n (None = the acoustic config's tvg, r⁴; 3 = "30 log R"); bit_depth
+    r^n (None = the acoustic config's tvg, r⁴; 3 = "30 log R"); tvg_reference:
+    "transducer" (the TVG runs from the transmit) or "bottom" (the recorder's TVG referenced
+    to the first bottom return: the water column gets the gain of the bottom return, flat
+    in range; see :func:`sim.sonar.receiver.ping_tvg`); bit_depth
     (amplitude bits, 0 = no quantisation/clipping) with full_scale_db the intensity after
     TVG and gain (dB re 1 µPa²) at which the ADC saturates.
     Targets (item 4): object_mu_db: Lambert μ (dB) of a reflectivity-1 object, replacing
@@ -100,6 +104,7 @@ class RealismConfig:
     upward_sidelobe_db: float = -25.0
     receiver_gain_db: float = 0.0
     tvg_exponent: float | None = None
+    tvg_reference: TvgReference = "transducer"
     bit_depth: int = 16
     full_scale_db: float = 150.0
     object_mu_db: float | None = -22.0
@@ -141,6 +146,10 @@ class RealismConfig:
         _rng("upward_sidelobe_db", self.upward_sidelobe_db, -80.0, 0.0)
         _rng("receiver_gain_db", self.receiver_gain_db, -100.0, 100.0)
         _opt("tvg_exponent", self.tvg_exponent, 1.0, 6.0)
+        if self.tvg_reference not in ("transducer", "bottom"):
+            raise ValueError(
+                f"tvg_reference = {self.tvg_reference!r}; allowed: 'transducer', 'bottom'"
+            )
         if not isinstance(self.bit_depth, int) or not 0 <= self.bit_depth <= 24:
             raise ValueError(f"bit_depth = {self.bit_depth!r}; allowed: integer 0 .. 24")
         _rng("full_scale_db", self.full_scale_db, 0.0, 300.0)

@@ -17,13 +17,16 @@ Levels in dB re 1 µPa² (intensities), ranges in m, angles in rad. Formulas:
   depth d also returns via one surface bounce; the path down–surface (mirror source at
   height h + 2d) is l₂ = √(g² + (h + 2d)²), so it arrives at slant range (l₁ + l₂)/2 with
   the extra spreading (l₁/l₂)² and the surface loss.
+* Recorder gain (``tvg_reference = "bottom"``): the TVG r^n·10^(2αr/10) held at its
+  value at the first bottom return (slant range = altitude over a flat seabed) for the
+  water column, :func:`sim.sonar.acoustics.bottom_held_tvg`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from sim.sonar.acoustics import beam_pattern
+from sim.sonar.acoustics import beam_pattern, bottom_held_tvg, tvg_gain
 
 
 def volume_reverberation(r, sl_db, sv_db, psi, bin_width, alpha_db_m):
@@ -117,3 +120,14 @@ def digitise(intensity, gain_db, bit_depth, full_scale_db):
     top = float(2**bit_depth - 1)
     counts = np.minimum(np.floor(np.sqrt(x / fs) * top), top)
     return (counts / top) ** 2 * fs
+
+
+def ping_tvg(tvg, altitude, rz, alpha_db_m, mode):
+    """The TVG curve (S,) of one ping: ``tvg`` (the transducer-referenced curve, returned
+    as is when ``rz.tvg_reference`` is "transducer" or the altitude is unknown) or, with
+    "bottom", that curve held at its value at slant range ``altitude`` (m)."""
+    if rz.tvg_reference != "bottom" or not (np.isfinite(altitude) and altitude > 0):
+        return tvg
+    n = 4.0 if rz.tvg_exponent is None else rz.tvg_exponent
+    at_bottom = float(tvg_gain(np.array([float(altitude)]), alpha_db_m, mode, n)[0])
+    return bottom_held_tvg(tvg, at_bottom)
