@@ -60,6 +60,8 @@ DISPLAY_BITS = 8
 KNEE_PARAMETER = Parameter("low_grazing_knee_deg", 2.0, 45.0, 15.0)
 NOISE_PARAMETER = Parameter("noise_level_db", -20.0, 100.0, 40.0)
 SLOPE_PARAMETER = Parameter("micro_slope_deg", 0.0, 8.0, 1.0)
+#: ``--fit-tvg``: the recorder's TVG spreading exponent n (r^n; 3 = "30 log R").
+TVG_PARAMETER = Parameter("tvg_exponent", 2.0, 5.0, 4.0)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -117,6 +119,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--fit-noise",
         action="store_true",
         help="ray-cast models: also fit the receiver noise before TVG (noise_level_db)",
+    )
+    parser.add_argument(
+        "--fit-tvg",
+        action="store_true",
+        help="ray-cast models: also fit the recorder's TVG exponent (tvg_exponent, r^n) with "
+        "the far-range seabed level as a target (within 2 dB); with tvg_reference = \"bottom\" in the --preset file the TVG is held at its "
+        "bottom-return value over the water column",
     )
     parser.add_argument(
         "--micro-slope",
@@ -205,6 +214,7 @@ def _model(args, altitude: float, max_range: float, samples: int, target, legs=(
         + (KNEE_PARAMETER,) * args.low_grazing
         + (NOISE_PARAMETER,) * args.fit_noise
         + (SLOPE_PARAMETER,) * args.micro_slope
+        + (TVG_PARAMETER,) * args.fit_tvg
     )
     free = _unfixed(args, free)
     model = survey
@@ -276,7 +286,7 @@ def _fit(args, geometry, samples: int, target, side=None) -> SideFit:
             good_enough=args.good_enough,
             model_config=model_cfg,
             fit_tile_texture=args.model != "statistical",
-            fit_far_range=args.low_grazing and args.model != "statistical",
+            fit_far_range=(args.low_grazing or args.fit_tvg) and args.model != "statistical",
             model_first_return=(
                 model_first_return(simulate.spec)
                 if args.bottom == "altitude" and args.model != "statistical"

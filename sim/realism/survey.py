@@ -111,7 +111,7 @@ class RaycastSurvey:
         """The preset's own value of a realism or acoustic field (``range_cell_m`` None →
         the sonar's range resolution c/2B; ``display_floor_db`` None → its default
         SL + 10·log10 μ − 60 dB; ``low_grazing_knee_deg`` None → 15°; ``micro_slope_deg``
-        None → 1°), to start a fit from."""
+        None → 1°; ``tvg_exponent`` None → 4, the r⁴ law), to start a fit from."""
         cfg = self.config({})
         ac = cfg.acoustic
         v = getattr(ac.realism, name) if hasattr(ac.realism, name) else getattr(ac, name)
@@ -123,6 +123,8 @@ class RaycastSurvey:
             v = 15.0  # off in the preset: start the fit from a knee near sand's data
         if v is None and name == "micro_slope_deg":
             v = 1.0
+        if v is None and name == "tvg_exponent":
+            v = 4.0  # None = the r⁴ law
         if v is None:
             raise ValueError(f"preset {self.spec.preset!r}: {name} is off; cannot fit it")
         return float(v)

@@ -48,7 +48,10 @@ class RealismConfig:
     (None = off: the laws as published, sin² at low grazing); see :mod:`sim.sonar.sediment`;
     micro_slope_deg / micro_slope_cell_m: world-fixed facets of micro_slope_cell_m m, each
     tilted by a Gaussian slope (rms micro_slope_deg per axis; None = off) — relief below
-    the mesh, which modulates the return most where the law is steep (low grazing)).
+    the mesh, which modulates the return most where the law is steep (low grazing));
+    grazing_clutter_deg / grazing_clutter_exponent: a K-type texture per clutter cell
+    whose shape falls with the grazing angle, 1/ν = (sin θc / sin θg)^p (None = off; see
+    :mod:`sim.sonar.sediment`).
     Speckle (item 2): speckle_correlated: complex Gaussian speckle on a sub-sample grid
     filtered by the range cell (range_cell_m, None = the sonar's range_resolution c/2B)
     and carried across pings by an AR(1) with the along-track beam overlap
@@ -94,6 +97,8 @@ class RealismConfig:
     low_grazing_exponent: float = 4.0
     micro_slope_deg: float | None = None
     micro_slope_cell_m: float = 0.2
+    grazing_clutter_deg: float | None = None
+    grazing_clutter_exponent: float = 5.0
     speckle_correlated: bool = True
     range_cell_m: float | None = None
     along_track_overlap: bool = True
@@ -138,6 +143,8 @@ class RealismConfig:
         _rng("low_grazing_exponent", self.low_grazing_exponent, 0.5, 12.0)
         _opt("micro_slope_deg", self.micro_slope_deg, 0.0, 20.0)
         _rng("micro_slope_cell_m", self.micro_slope_cell_m, 0.01, 5.0)
+        _opt("grazing_clutter_deg", self.grazing_clutter_deg, 0.5, 45.0)
+        _rng("grazing_clutter_exponent", self.grazing_clutter_exponent, 0.5, 12.0)
         _opt("range_cell_m", self.range_cell_m, 1e-4, 5.0)
         _opt("volume_sv_db", self.volume_sv_db, -150.0, -20.0)
         _opt("sea_state", self.sea_state, 0.0, 6.0)

@@ -38,6 +38,16 @@ rough surface). The return changes by d ln σ / dθg · δ: little where the law
 spiky (non-Rayleigh, correlated over a facet) at low grazing, as recorded far-range
 seabed does.
 
+Low-grazing clutter (``grazing_clutter_deg``, off by default): recorded seabed turns
+spikier as the grazing angle falls (shadowing and focusing by relief that the beam sees
+nearly edge-on; Lyons & Abraham 1999 report K shapes falling with grazing angle for
+high-frequency seafloor clutter). A world-fixed unit-mean gamma texture per clutter cell
+whose shape ν follows 1/ν = (sin θc / sin θg)^p: ν = 1 at θc, Rayleigh-like (ν → ∞) well
+above it. On the Scotsman's first half (pings 0–229) the tiles' ⟨I²⟩/⟨I⟩² rises from
+1.5 at 20–30° grazing to 1.8 at 12–15° and 2.2–2.6 at 10–12°; with the K moment relation
+⟨I²⟩/⟨I⟩² = (1 + 1/ν)(1 + 1/L) that gives θc and p (docs/realism.md, "Recorder gain and
+low-grazing texture").
+
 The field: a seeded periodic grid (``FIELD_CELL_M``) of smooth Gaussian noise per
 sediment; the sediment of a place is the soft arg-max of noise + an offset per sediment,
 the offsets fitted so the arg-max areas equal the requested fractions (patches with
@@ -141,6 +151,13 @@ def low_grazing_factor(sin_grazing: np.ndarray, knee_deg: float, exponent: float
     """1 / (1 + (sin θk / sin θg)^m) at sin θg (clipped to [1e-6, 1]); see the module."""
     sg = np.clip(np.asarray(sin_grazing, float), 1e-6, 1.0)
     return 1.0 / (1.0 + (np.sin(np.deg2rad(knee_deg)) / sg) ** exponent)
+
+
+def low_grazing_texture(sin_grazing: np.ndarray, knee_deg: float, exponent: float) -> np.ndarray:
+    """1/ν of the low-grazing clutter, (sin θc / sin θg)^p, at sin θg (clipped to
+    [1e-6, 1]); see the module."""
+    sg = np.clip(np.asarray(sin_grazing, float), 1e-6, 1.0)
+    return (np.sin(np.deg2rad(knee_deg)) / sg) ** exponent
 
 
 @lru_cache(maxsize=16)
@@ -250,4 +267,25 @@ class SedimentField:
         if self.cfg.k_clutter:
             shapes = np.array([law.k_shape for law in self.laws])
             sig *= self.clutter(xy, shapes[np.argmax(w, axis=1)])
+        if self.cfg.grazing_clutter_deg is not None:
+            sin_g = np.abs(np.sum(normal * dirs, axis=1))  # the mesh's grazing, not the facets'
+            sig *= self.grazing_clutter(xy, sin_g)
         return sig / self.mu
+
+    def grazing_clutter(self, xy: np.ndarray, sin_grazing: np.ndarray) -> np.ndarray:
+        """World-fixed unit-mean gamma texture (per clutter cell) whose shape falls with the
+        grazing angle θg: 1/ν = (sin θc / sin θg)^p (θc = grazing_clutter_deg, p =
+        grazing_clutter_exponent; see the module). 1 where ν > 1e3 (no texture)."""
+        cfg = self.cfg
+        inv_nu = low_grazing_texture(
+            sin_grazing, cfg.grazing_clutter_deg, cfg.grazing_clutter_exponent
+        )
+        out = np.ones(xy.shape[0])
+        sel = np.flatnonzero(inv_nu > 1e-3)
+        if sel.size == 0:
+            return out
+        cell = np.floor(xy[sel] / cfg.clutter_cell_m).astype(np.int64)
+        u = _hash_uniform(cell[:, 0], cell[:, 1], cfg.sediment_seed + 17)
+        nu = 1.0 / np.minimum(inv_nu[sel], 20.0)  # ν ≥ 0.05
+        out[sel] = gammaincinv(nu, u) / nu
+        return out
