@@ -123,9 +123,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--fit-tvg",
         action="store_true",
-        help="ray-cast models: also fit the recorder's TVG exponent (tvg_exponent, r^n) with "
-        "the far-range seabed level as a target (within 2 dB); with tvg_reference = \"bottom\" in the --preset file the TVG is held at its "
-        "bottom-return value over the water column",
+        help="ray-cast models: also fit the recorder's TVG exponent (tvg_exponent, r^n) "
+        "with the far-range seabed level as a target (within 2 dB); with tvg_reference "
+        "= bottom in the --preset file the TVG is held at its bottom-return value over "
+        "the water column",
     )
     parser.add_argument(
         "--micro-slope",
