@@ -118,3 +118,16 @@ def test_each_leg_flies_its_own_altitude():
 def test_bad_leg_altitudes_are_named(legs, message):
     with pytest.raises(ValueError, match=message):
         SurveySpec(6.0, 20.0, 128, pings=32, segments=2, leg_altitudes_m=legs)
+
+
+def test_tvg_exponent_starts_from_r4_or_the_preset_files_value(tmp_path):
+    spec = SurveySpec(5.0, 20.0, 128, pings=32)
+    assert RaycastSurvey(spec).start_value("tvg_exponent") == 4.0  # None = the r⁴ law
+    f = tmp_path / "p.toml"
+    f.write_text(
+        '[sonar]\npreset = "deepeye680d_realistic"\n[sonar.overrides]\n'
+        'tvg_exponent = 3.6\ntvg_reference = "bottom"\n'
+    )
+    survey = RaycastSurvey(SurveySpec(5.0, 20.0, 128, pings=32, preset=str(f)))
+    assert survey.start_value("tvg_exponent") == 3.6
+    assert survey.config({}).acoustic.realism.tvg_reference == "bottom"
