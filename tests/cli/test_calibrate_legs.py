@@ -30,3 +30,20 @@ def test_model_first_return_follows_each_leg():
     fr = model_first_return(spec)
     assert fr.shape == (32,)
     assert np.allclose(fr[:16], 4.0 / 0.1) and np.allclose(fr[16:], 8.0 / 0.1)
+
+
+def test_fit_tvg_adds_the_tvg_exponent_from_r4():
+    import argparse
+
+    from sim.cli.calibrate_cmd import _model, add_arguments
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    names = {}
+    for extra in ([], ["--fit-tvg"]):
+        args = parser.parse_args(["r.xtf", "--out", "o.toml", "--gain", "fit", *extra])
+        _, params, _ = _model(args, 5.0, 20.0, 128, None)
+        names[bool(extra)] = {p.name: p for p in params}
+    assert "tvg_exponent" not in names[False]
+    p = names[True]["tvg_exponent"]
+    assert (p.lo, p.hi, p.initial) == (2.0, 5.0, 4.0)  # the preset's None is the r⁴ law
