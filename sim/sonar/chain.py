@@ -22,6 +22,7 @@ from sim.sonar.receiver import (
     volume_reverberation,
 )
 from sim.sonar.speckle import CorrelatedSpeckle
+from sim.sonar.transmit_pulse import TransmitPulse
 
 
 class SideScanChain:
@@ -73,6 +74,7 @@ class SideScanChain:
         self.tvg = tvg_gain(
             ranges, mount.alpha_db_m, ac.tvg, 4.0 if rz.tvg_exponent is None else rz.tvg_exponent
         )
+        self.transmit = TransmitPulse(rz, ranges)
 
     def _beam_ratio(self, altitude, depth):
         """One-way vertical beam gain towards the surface image over the direct ray."""
@@ -132,6 +134,7 @@ class SideScanChain:
         else:
             s = s + self.noise * rng.standard_exponential(size=s.shape)
         s = s * self.tvg[None, :]
+        s = self.transmit(s)  # transmit pulse + ring-down (off: s unchanged)
         s = digitise(s, self.rz.receiver_gain_db, self.rz.bit_depth, self.rz.full_scale_db)
         if self.ac.log_compression:
             floor = self.ac.display_floor_db

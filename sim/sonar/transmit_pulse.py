@@ -1,0 +1,146 @@
+"""The transmit pulse in the receiver: the transducer's own transmission and its ring-down
+leaking into the first samples of every ping.
+
+A side-scan transmits and receives on the same transducer (mono-static). While it
+transmits, the receiver sees the drive itself, many orders above any echo, and after the
+drive stops the transducer keeps ringing and the saturated receiver recovers, so the
+first samples of every ping are at (or near) full scale, decaying over the pulse length
+plus the ring-down. This is why sonars blank (or show as a bright band) the first
+c·τ/2 of range; the ring-down of a mono-static transducer is the limit on its minimum
+range (Texas Instruments, *PGA460 Ultrasonic Module Hardware and Software Optimization*,
+SLAA732A, 2017/2021, §4.4 "Passive Tuning": "ringing-decay time of mono-static
+configurations"; the direct blast of active sonar: L. R. Riddle, *Introduction to Active
+Sonar*, OpenStax CNX m14548). The Humminbird recording in ``../shared/data/humminbird``
+shows it in every ping: samples 0–1 at 255 in every ping, 0–4 (port) / 0–5 (starboard)
+in every other ping (the unit alternates two pulse lengths), then a decay of about 20 dB
+over the next 15 samples (docs/realism.md).
+
+Model, per ping and side, added to the echo intensity after the TVG and before the
+receiver gain and the ADC (so the ADC or the display clips it like the real receiver),
+with r the slant range of a sample's centre (m), r_p the pulse's range extent c·τ/2 (m)
+and ℓ the ring-down length (m)::
+
+    I_tx(r) = 10^(L/10)                             for r ≤ r_p   (the drive)
+    I_tx(r) = 10^((L + D)/10) · exp(−(r − r_p)/ℓ)   for r > r_p   (the ring-down)
+
+L = ``transmit_level_db`` (dB re 1 µPa², the scale of the echo after TVG: e.g. 40 dB
+over the ADC's full scale saturates it); D = ``transmit_ringdown_db`` (≤ 0): when the drive
+stops, what is left is the transducer's free ringing, D below the drive. Units that alternate two pulse lengths use
+``transmit_pulse_alt_m`` on every other ping (the first ping uses ``transmit_pulse_m``),
+and the echoes of those pings are recorded later by the difference of the two pulse
+extents (rounded to whole samples): a receiver that integrates the echo over its pulse
+(the causal matched filter of a rectangular pulse peaks at the pulse's end) delays each
+echo by its own pulse length. The Humminbird recording shows exactly that: consecutive
+pings correlate best (0.5) at a range offset of 3 samples, alternating in sign, the
+difference of its 5- and 2-sample pulses; at zero offset they correlate 0.13–0.2.
+The ring-down is an exponential in intensity: a resonator of quality factor Q decays as
+exp(−2πf t/Q) in energy, ℓ = c·Q/(4πf) in range; the receiver's recovery from saturation
+lengthens it in practice, hence a fitted ℓ rather than one derived from Q.
+
+:func:`pulse_lengths_from_recording` derives r_p from a recording: the run of full-scale
+samples at the start of each ping times the recording's sample spacing.
+
+Fields (mixed into :class:`sim.sonar.effects.RealismConfig`, so presets and scenario
+files set them like any realism field); ``transmit_level_db = None`` (the default) turns
+the model off and leaves every output bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def _check(name: str, v, lo: float, hi: float, optional: bool = False) -> None:
+    if optional and v is None:
+        return
+    if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
+        raise ValueError(f"{name} = {v!r} is outside the allowed range [{lo}, {hi}]")
+
+
+@dataclass(frozen=True)
+class TransmitPulseFields:
+    """Transmit-pulse fields of a sonar's realism config (see the module).
+
+    transmit_level_db: level of the leaked transmission, dB re 1 µPa² after TVG (None =
+    off); transmit_pulse_m: its range extent c·τ/2, m; transmit_pulse_alt_m: the extent
+    on every other ping for units that alternate two pulses (None = one pulse);
+    transmit_ringdown_db: level of the ring-down's start re the drive, dB (<= 0);
+    transmit_ringdown_m: e-folding range of the ring-down intensity, m."""
+
+    transmit_level_db: float | None = None
+    transmit_pulse_m: float = 0.05
+    transmit_pulse_alt_m: float | None = None
+    transmit_ringdown_db: float = 0.0
+    transmit_ringdown_m: float = 0.05
+
+    def __post_init__(self) -> None:
+        _check("transmit_level_db", self.transmit_level_db, 0.0, 400.0, optional=True)
+        _check("transmit_pulse_m", self.transmit_pulse_m, 0.0, 10.0)
+        _check("transmit_pulse_alt_m", self.transmit_pulse_alt_m, 0.0, 10.0, optional=True)
+        _check("transmit_ringdown_db", self.transmit_ringdown_db, -200.0, 0.0)
+        _check("transmit_ringdown_m", self.transmit_ringdown_m, 1e-4, 10.0)
+
+
+def leak_profile(ranges, level_db: float, pulse_m: float, ringdown_db: float, ringdown_m: float):
+    """I_tx (S,) at slant ranges ``ranges`` (m), µPa² (formula in the module)."""
+    r = np.asarray(ranges, dtype=np.float64)
+    ring = 10.0 ** ((level_db + ringdown_db) / 10.0) * np.exp(-(r - pulse_m) / ringdown_m)
+    return np.where(r <= pulse_m, 10.0 ** (level_db / 10.0), ring)
+
+
+class TransmitPulse:
+    """``pulse(samples) -> samples``: adds the transmit leak to one ping's samples (rows,
+    S) after TVG; holds the ping count for alternating pulses. Off (``level_db`` None):
+    returns its input unchanged (the same array)."""
+
+    def __init__(self, rz, ranges: np.ndarray):
+        self.profiles: tuple[np.ndarray, ...] = ()
+        self.delays: tuple[int, ...] = (0,)
+        self.count = 0
+        if rz is None or rz.transmit_level_db is None:
+            return
+        r = np.asarray(ranges, dtype=np.float64)
+        pulses = (rz.transmit_pulse_m,)
+        if rz.transmit_pulse_alt_m is not None:
+            pulses += (rz.transmit_pulse_alt_m,)
+            step = float(r[1] - r[0]) if r.size > 1 else 1.0
+            self.delays = (0, round((rz.transmit_pulse_alt_m - rz.transmit_pulse_m) / step))
+        self.profiles = tuple(
+            leak_profile(
+                r, rz.transmit_level_db, p, rz.transmit_ringdown_db, rz.transmit_ringdown_m
+            )
+            for p in pulses
+        )
+
+    def __call__(self, samples: np.ndarray) -> np.ndarray:
+        if not self.profiles:
+            return samples
+        k = self.count % len(self.profiles)
+        self.count += 1
+        return delay_samples(samples, self.delays[k]) + self.profiles[k][None, :]
+
+
+def delay_samples(samples: np.ndarray, n: int) -> np.ndarray:
+    """(rows, S) samples delayed by ``n`` samples along range (n < 0: advanced); the
+    samples shifted in repeat the edge sample (the leak covers the near end)."""
+    if n == 0:
+        return samples
+    idx = np.clip(np.arange(samples.shape[-1]) - n, 0, samples.shape[-1] - 1)
+    return samples[..., idx]
+
+
+def pulse_lengths_from_recording(side: np.ndarray, full_scale: float, sample_m: float):
+    """(pulse m of even pings, pulse m of odd pings) of one side (P, S) of a recording,
+    near range first: the median run of samples at ``full_scale`` (or above) from sample
+    0 of each ping, times the sample spacing ``sample_m`` (m)."""
+    a = np.asarray(side)
+    if a.ndim != 2 or a.shape[0] < 2:
+        raise ValueError(f"side has shape {a.shape}; need (pings >= 2, samples)")
+    if not sample_m > 0:
+        raise ValueError(f"sample_m = {sample_m}; must be > 0")
+    clipped = a >= full_scale
+    run = np.where(clipped.all(axis=1), a.shape[1], np.argmin(clipped, axis=1))
+    return tuple(float(np.median(run[k::2])) * sample_m for k in (0, 1))
