@@ -1,5 +1,6 @@
 """The transmit pulse in the receiver: the transducer's own transmission and its ring-down
-leaking into the first samples of every ping.
+leaking into the first samples of every ping; and the receiver's post-detection (video)
+low-pass filter.
 
 A side-scan transmits and receives on the same transducer (mono-static). While it
 transmits, the receiver sees the drive itself, many orders above any echo, and after the
@@ -37,6 +38,15 @@ The ring-down is an exponential in intensity: a resonator of quality factor Q de
 exp(−2πf t/Q) in energy, ℓ = c·Q/(4πf) in range; the receiver's recovery from saturation
 lengthens it in practice, hence a fitted ℓ rather than one derived from Q.
 
+Video filter: analogue side-scan receivers smooth the detected envelope with a low-pass
+(an RC stage) before the ADC or the display; a single pole of time constant T gives, per
+sample of spacing Δr, y_k = a·y_{k−1} + (1 − a)·x_k on the amplitude x = √I with
+a = exp(−Δr/ℓ_v), ℓ_v = c·T/2 = ``video_filter_m`` (None = off), so white input comes
+out with the exponential autocorrelation a^|k| along range. The Humminbird recording's
+range autocorrelation of amplitude falls like that (0.62, 0.35, 0.23, 0.15 at lags 1–4 on
+the port side of the first half; the ray-cast speckle's Gaussian range cell alone gives
+0.54, 0.10, −0.01), which is also what made its LBP texture differ (docs/realism.md).
+
 :func:`pulse_lengths_from_recording` derives r_p from a recording: the run of full-scale
 samples at the start of each ping times the recording's sample spacing.
 
@@ -51,6 +61,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import lfilter
 
 
 def _check(name: str, v, lo: float, hi: float, optional: bool = False) -> None:
@@ -68,13 +79,16 @@ class TransmitPulseFields:
     off); transmit_pulse_m: its range extent c·τ/2, m; transmit_pulse_alt_m: the extent
     on every other ping for units that alternate two pulses (None = one pulse);
     transmit_ringdown_db: level of the ring-down's start re the drive, dB (<= 0);
-    transmit_ringdown_m: e-folding range of the ring-down intensity, m."""
+    transmit_ringdown_m: e-folding range of the ring-down intensity, m;
+    video_filter_m: range constant ℓ_v = c·T/2 of the receiver's one-pole video filter,
+    m (None = off)."""
 
     transmit_level_db: float | None = None
     transmit_pulse_m: float = 0.05
     transmit_pulse_alt_m: float | None = None
     transmit_ringdown_db: float = 0.0
     transmit_ringdown_m: float = 0.05
+    video_filter_m: float | None = None
 
     def __post_init__(self) -> None:
         _check("transmit_level_db", self.transmit_level_db, 0.0, 400.0, optional=True)
@@ -82,6 +96,7 @@ class TransmitPulseFields:
         _check("transmit_pulse_alt_m", self.transmit_pulse_alt_m, 0.0, 10.0, optional=True)
         _check("transmit_ringdown_db", self.transmit_ringdown_db, -200.0, 0.0)
         _check("transmit_ringdown_m", self.transmit_ringdown_m, 1e-4, 10.0)
+        _check("video_filter_m", self.video_filter_m, 1e-4, 10.0, optional=True)
 
 
 def leak_profile(ranges, level_db: float, pulse_m: float, ringdown_db: float, ringdown_m: float):
@@ -93,20 +108,26 @@ def leak_profile(ranges, level_db: float, pulse_m: float, ringdown_db: float, ri
 
 class TransmitPulse:
     """``pulse(samples) -> samples``: adds the transmit leak to one ping's samples (rows,
-    S) after TVG; holds the ping count for alternating pulses. Off (``level_db`` None):
-    returns its input unchanged (the same array)."""
+    S) after TVG, then applies the video filter; holds the ping count for alternating
+    pulses. Both off (``transmit_level_db`` and ``video_filter_m`` None): returns its input
+    unchanged (the same array)."""
 
     def __init__(self, rz, ranges: np.ndarray):
         self.profiles: tuple[np.ndarray, ...] = ()
         self.delays: tuple[int, ...] = (0,)
         self.count = 0
-        if rz is None or rz.transmit_level_db is None:
+        self.pole: float | None = None
+        if rz is None:
             return
         r = np.asarray(ranges, dtype=np.float64)
+        step = float(r[1] - r[0]) if r.size > 1 else 1.0
+        if rz.video_filter_m is not None:
+            self.pole = float(np.exp(-step / rz.video_filter_m))
+        if rz.transmit_level_db is None:
+            return
         pulses = (rz.transmit_pulse_m,)
         if rz.transmit_pulse_alt_m is not None:
             pulses += (rz.transmit_pulse_alt_m,)
-            step = float(r[1] - r[0]) if r.size > 1 else 1.0
             self.delays = (0, round((rz.transmit_pulse_alt_m - rz.transmit_pulse_m) / step))
         self.profiles = tuple(
             leak_profile(
@@ -116,11 +137,22 @@ class TransmitPulse:
         )
 
     def __call__(self, samples: np.ndarray) -> np.ndarray:
-        if not self.profiles:
-            return samples
-        k = self.count % len(self.profiles)
-        self.count += 1
-        return delay_samples(samples, self.delays[k]) + self.profiles[k][None, :]
+        out = samples
+        if self.profiles:
+            k = self.count % len(self.profiles)
+            self.count += 1
+            out = delay_samples(out, self.delays[k]) + self.profiles[k][None, :]
+        if self.pole is not None:
+            out = video_filter(out, self.pole)
+        return out
+
+
+def video_filter(samples: np.ndarray, pole: float) -> np.ndarray:
+    """One-pole low-pass along range (last axis) of the amplitude √I, returned as intensity:
+    y_k = a·y_{k−1} + (1 − a)·x_k, started at y_0 = x_0 (a = ``pole``)."""
+    x = np.sqrt(np.maximum(samples, 0.0))
+    y = lfilter([1.0 - pole], [1.0, -pole], x, axis=-1, zi=pole * x[..., :1])[0]
+    return y * y
 
 
 def delay_samples(samples: np.ndarray, n: int) -> np.ndarray:
