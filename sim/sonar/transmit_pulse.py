@@ -107,8 +107,10 @@ def leak_profile(ranges, level_db: float, pulse_m: float, ringdown_db: float, ri
 
 
 class TransmitPulse:
-    """``pulse(samples) -> samples``: adds the transmit leak to one ping's samples (rows,
-    S) after TVG, then applies the video filter; holds the ping count for alternating
+    """``pulse(samples) -> samples``: one ping's samples (rows, S) after TVG through the
+    video filter, then delayed (alternate pulses) and with the transmit leak added (the
+    leak profile is the one seen at the receiver's output, as fitted to a recording, so it
+    is not filtered again); holds the ping count for alternating
     pulses. Both off (``transmit_level_db`` and ``video_filter_m`` None): returns its input
     unchanged (the same array)."""
 
@@ -138,12 +140,12 @@ class TransmitPulse:
 
     def __call__(self, samples: np.ndarray) -> np.ndarray:
         out = samples
+        if self.pole is not None:
+            out = video_filter(out, self.pole)
         if self.profiles:
             k = self.count % len(self.profiles)
             self.count += 1
             out = delay_samples(out, self.delays[k]) + self.profiles[k][None, :]
-        if self.pole is not None:
-            out = video_filter(out, self.pole)
         return out
 
 
