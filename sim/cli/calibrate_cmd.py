@@ -62,6 +62,9 @@ NOISE_PARAMETER = Parameter("noise_level_db", -20.0, 100.0, 40.0)
 SLOPE_PARAMETER = Parameter("micro_slope_deg", 0.0, 8.0, 1.0)
 #: ``--fit-tvg``: the recorder's TVG spreading exponent n (r^n; 3 = "30 log R").
 TVG_PARAMETER = Parameter("tvg_exponent", 2.0, 5.0, 4.0)
+#: ``--video-filter``: the receiver's video filter (sim.sonar.transmit_pulse; the preset
+#: must switch it on, its value is the start).
+VIDEO_PARAMETER = Parameter("video_filter_m", 0.002, 0.2, 0.02, log=True)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -132,6 +135,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--micro-slope",
         action="store_true",
         help="ray-cast models: also fit the seabed's micro-relief (micro_slope_deg)",
+    )
+    parser.add_argument(
+        "--video-filter",
+        action="store_true",
+        help="ray-cast models: also fit the receiver's video filter (video_filter_m; the "
+        "preset sets its start)",
     )
     parser.add_argument(
         "--per-side",
@@ -216,6 +225,7 @@ def _model(args, altitude: float, max_range: float, samples: int, target, legs=(
         + (NOISE_PARAMETER,) * args.fit_noise
         + (SLOPE_PARAMETER,) * args.micro_slope
         + (TVG_PARAMETER,) * args.fit_tvg
+        + (VIDEO_PARAMETER,) * args.video_filter
     )
     free = _unfixed(args, free)
     model = survey

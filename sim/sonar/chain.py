@@ -23,6 +23,7 @@ from sim.sonar.receiver import (
     volume_reverberation,
 )
 from sim.sonar.speckle import CorrelatedSpeckle
+from sim.sonar.transmit_pulse import TransmitPulse
 
 
 class SideScanChain:
@@ -74,6 +75,7 @@ class SideScanChain:
         self.tvg = tvg_gain(
             ranges, mount.alpha_db_m, ac.tvg, 4.0 if rz.tvg_exponent is None else rz.tvg_exponent
         )
+        self.transmit = TransmitPulse(rz, ranges)
 
     def _beam_ratio(self, altitude, depth):
         """One-way vertical beam gain towards the surface image over the direct ray."""
@@ -133,6 +135,7 @@ class SideScanChain:
         else:
             s = s + self.noise * rng.standard_exponential(size=s.shape)
         s = s * ping_tvg(self.tvg, altitude, self.rz, self.m.alpha_db_m, self.ac.tvg)[None, :]
+        s = self.transmit(s)  # transmit pulse + ring-down (off: s unchanged)
         s = digitise(s, self.rz.receiver_gain_db, self.rz.bit_depth, self.rz.full_scale_db)
         if self.ac.log_compression:
             floor = self.ac.display_floor_db

@@ -15,6 +15,8 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
+from sim.sonar.transmit_pulse import TransmitPulseFields
+
 SeabedModel = Literal["lambert", "sediment"]
 TvgReference = Literal["transducer", "bottom"]
 SEDIMENT_NAMES = ("mud", "sand", "gravel", "rock")
@@ -31,7 +33,7 @@ def _opt(name: str, v: float | None, lo: float, hi: float) -> None:
 
 
 @dataclass(frozen=True)
-class RealismConfig:
+class RealismConfig(TransmitPulseFields):
     """Image-realism effects of one sonar (all fields validated; ``None``/``False`` = off).
 
     Seabed (item 1): seabed_model "sediment" replaces Lambert × seabed reflectivity with
@@ -76,6 +78,9 @@ class RealismConfig:
     corner_width_deg: double-bounce (dihedral: hull–seabed, deck–superstructure) returns
     traced with a second ray (None = off); fls_azimuth_sidelobe_db: first sidelobe of the
     FLS receive beams across beams (None = off).
+    Receiver (item 3): the transmit pulse and its ring-down in the first samples of each
+    ping, fields ``transmit_*`` from :class:`sim.sonar.transmit_pulse.TransmitPulseFields`
+    (``transmit_level_db`` None = off).
     """
 
     seabed_model: SeabedModel = "sediment"
@@ -120,6 +125,7 @@ class RealismConfig:
     fls_azimuth_sidelobe_db: float | None = -28.0
 
     def __post_init__(self) -> None:
+        super().__post_init__()  # the transmit-pulse fields (sim.sonar.transmit_pulse)
         if self.seabed_model not in ("lambert", "sediment"):
             raise ValueError(
                 f"seabed_model = {self.seabed_model!r}; allowed: 'lambert', 'sediment'"
