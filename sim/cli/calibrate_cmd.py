@@ -306,11 +306,19 @@ def _fit(args, geometry, samples: int, target, side=None) -> SideFit:
             sides=(side,) if side else ("port", "starboard"),
         )
     except CalibrationError as exc:
+        if exc.best is not None:  # the best point's report uses its solved gain too
+            exc.best = _with_solved_gain(simulate, exc.best)
         return SideFit(side, simulate, model_cfg, exc)
-    if hasattr(simulate, "gain_for"):  # the solved gain belongs to the preset too
-        gain = simulate.gain_for(result.values)
-        result = replace(result, values={**result.values, "receiver_gain_db": gain})
-    return SideFit(side, simulate, model_cfg, result)
+    return SideFit(side, simulate, model_cfg, _with_solved_gain(simulate, result))
+
+
+def _with_solved_gain(simulate, result: CalibrationResult) -> CalibrationResult:
+    """``result`` with the gain solved at its values (the solved gain belongs to the preset
+    too); unchanged when the model does not solve the gain."""
+    if not hasattr(simulate, "gain_for"):
+        return result
+    gain = simulate.gain_for(result.values)
+    return replace(result, values={**result.values, "receiver_gain_db": gain})
 
 
 def run(args: argparse.Namespace) -> int:

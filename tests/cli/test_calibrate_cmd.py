@@ -135,3 +135,21 @@ def test_fix_holds_a_parameter_and_an_unknown_one_is_named(tmp_path, capsys):
     else:  # not converged: the best point shown keeps the held value out of the search
         assert "looks =" not in out.err and "texture_db =" in out.err
     assert start == 1.5
+
+
+def test_best_point_of_a_failed_solved_gain_fit_carries_its_gain():
+    """A fit that does not converge still reports (and flies the held-out half with) the
+    gain solved at its best point, not the preset's."""
+    from sim.cli.calibrate_cmd import _with_solved_gain
+    from slam.realism.calibration import CalibrationResult
+
+    class Solved:
+        def gain_for(self, values):
+            return -2.0 * values["tvg_exponent"]
+
+    best = CalibrationResult({"tvg_exponent": 4.0}, {}, 1.0, 2.0, {}, 3, None, None)
+    assert _with_solved_gain(Solved(), best).values == {
+        "tvg_exponent": 4.0,
+        "receiver_gain_db": -8.0,
+    }
+    assert _with_solved_gain(object(), best) is best  # no solved gain: unchanged
