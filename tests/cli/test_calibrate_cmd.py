@@ -135,3 +135,15 @@ def test_fix_holds_a_parameter_and_an_unknown_one_is_named(tmp_path, capsys):
     else:  # not converged: the best point shown keeps the held value out of the search
         assert "looks =" not in out.err and "texture_db =" in out.err
     assert start == 1.5
+
+
+def test_video_filter_needs_a_preset_that_switches_it_on(tmp_path, capsys):
+    """``--video-filter`` fits video_filter_m from the preset's value; a preset without the
+    filter is named, exit 2, nothing written."""
+    img = StatisticalSideScan(pings=64, samples_per_side=256, seed=7)(TRUTH)
+    rec = _recording(tmp_path / "r.npz", img)
+    out = tmp_path / "x.toml"
+    args = ["calibrate", str(rec), "--model", "raycast-display", "--out", str(out)]
+    assert main([*args, "--video-filter", "--preset", "deepeye680d_realistic"]) == 2
+    assert "video_filter_m" in capsys.readouterr().err
+    assert not out.exists()
