@@ -153,3 +153,15 @@ def test_best_point_of_a_failed_solved_gain_fit_carries_its_gain():
         "receiver_gain_db": -8.0,
     }
     assert _with_solved_gain(object(), best) is best  # no solved gain: unchanged
+
+
+def test_video_filter_needs_a_preset_that_switches_it_on(tmp_path, capsys):
+    """``--video-filter`` fits video_filter_m from the preset's value; a preset without the
+    filter is named, exit 2, nothing written."""
+    img = StatisticalSideScan(pings=64, samples_per_side=256, seed=7)(TRUTH)
+    rec = _recording(tmp_path / "r.npz", img)
+    out = tmp_path / "x.toml"
+    args = ["calibrate", str(rec), "--model", "raycast-display", "--out", str(out)]
+    assert main([*args, "--video-filter", "--preset", "deepeye680d_realistic"]) == 2
+    assert "video_filter_m" in capsys.readouterr().err
+    assert not out.exists()

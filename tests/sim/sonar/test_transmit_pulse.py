@@ -149,9 +149,9 @@ def test_pulse_lengths_from_a_recording_with_known_runs():
 def test_humminbird_recording_pulse_lengths(shared_data):
     """Port of the Humminbird recording (first half, 8-bit levels L stored as L²): the
     unit alternates a 5- and a 2-sample pulse (0.094 / 0.038 m at 1.88 cm per sample)."""
-    from slam.realism.recordings import load_recording
+    from sim.cli.realism_io import load_humminbird
 
-    rec = load_recording(shared_data / "humminbird" / "test.DAT")
+    rec = load_humminbird(shared_data / "humminbird" / "test.DAT")
     s = rec.intensity.shape[1] // 2
     first = rec.intensity[: rec.n_pings // 2]
     dr = rec.slant_range_m / s
