@@ -178,13 +178,14 @@ def form_echo(
         _realistic_sigma(t, lab, hits.normal, dirs, o, seabed, object_specular, object_gain)
     np.exp(t[R_ATT], out=t[R_ATT])  # numpy's exp, as the array version, for the same bytes
     use_links = neighbours is not None
-    f, link, k, wide = footprint_pass(
+    f, link, k, wide, need = footprint_pass(
         gain, t, lab, neighbours if use_links else _NO_LINKS, use_links, float(r_min),
         float(bin_width), n_bins, float(footprint_scale), MIN_EXTENT_BINS, MAX_EXTENT_BINS,
         MAX_EXTENT_FRACTION, SUBBOX_BINS, MAX_SUBBOXES,
     )  # fmt: skip
-    if wide.size and use_links:
-        np.log(f[F_DENS], out=f[F_DENS])  # log box densities for the sub-box slopes
+    if wide.size and use_links:  # log box densities for the sub-box slopes, where read
+        dens = f[F_DENS]
+        dens[need] = np.log(dens[need])  # numpy's log of an element: that of the whole row
     sub, src = subbox_pass(wide, k, f, link, t[R_RANGE], float(bin_width))
     np.exp(sub[2], out=sub[2])
     mean, labels, hitpos, start, end = image_pass(

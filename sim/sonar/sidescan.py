@@ -18,13 +18,14 @@ from dataclasses import dataclass, replace
 import mujoco
 import numpy as np
 
-from sim.sonar.acoustics import beam_pattern, finish_samples, tvg_gain
+from sim.sonar.acoustics import beam_pattern, tvg_gain
 from sim.sonar.chain import SideScanChain
 from sim.sonar.config import SSSConfig, WaterLike
 from sim.sonar.echo import Echo, form_echo
 from sim.sonar.glint import corner_returns
 from sim.sonar.mount import SonarMount
 from sim.sonar.rays import RayCones, RayHits, ray_cones
+from sim.sonar.sss_samples import ping_samples
 from sim.sonar.waterfall import SSSPing
 
 _PROBE_DEG = np.array([60.0, 65.0, 70.0, 75.0, 80.0, 85.0, 90.0])
@@ -114,7 +115,9 @@ class SideScanSonar:
             ]
         )
         self._fan_cache = None
+        # the plain receive chain's gain and noise (as acoustics.finish_samples forms them)
         self._tvg = tvg_gain(self.ranges, self.mount.alpha_db_m, c.acoustic.tvg)
+        self._noise = 10.0 ** (c.acoustic.noise_level_db / 10.0)
         rz = c.acoustic.realism
         self.chain = SideScanChain(c, self.mount, self.ranges) if rz is not None else None
 
@@ -339,10 +342,11 @@ class SideScanSonar:
             pos = np.concatenate([e.hit_position for e in out])
         if self.chain is not None:
             inten = self.chain.finish(mean, altitude, 0.5 * (p_port + p_stbd), rng)
+            inten = np.concatenate([inten[0, ::-1], inten[1]])
         else:
-            inten = finish_samples(mean, self.ranges, m.alpha_db_m, c.acoustic, rng, self._tvg)
+            inten = ping_samples(mean, c.acoustic, rng, self._tvg, self._noise)
         return SSSPing(
-            intensity=np.concatenate([inten[0, ::-1], inten[1]]),
+            intensity=inten,
             slant_range=self.slant_range,
             labels=np.concatenate([labels[0, ::-1], labels[1]]),
             hit_position=np.concatenate([pos[0, ::-1], pos[1]]),
