@@ -64,7 +64,7 @@ class Echo:
 
     mean: np.ndarray
     labels: np.ndarray
-    hit_position: np.ndarray  # (bins, rows, 3) when form_echo(..., bins_first=True)
+    hit_position: np.ndarray  # (bins, rows, 3) with bins_first, (2·bins, 3) with ping_layout
 
 
 def _splat_energy(rows, a, b, e, n_rows, n_bins):
@@ -130,6 +130,7 @@ def form_echo(
     object_specular: tuple[float, float] | None = None,
     object_gain: float = 1.0,
     bins_first: bool = False,
+    ping_layout: bool = False,
 ) -> Echo:
     """Bin ray hits into (rows, bins) mean intensity, labels and hit positions.
 
@@ -152,7 +153,8 @@ def form_echo(
     object hits' Lambert term (a target's own μ over the seabed's ``lambert_mu_db``).
 
     bins_first: return ``hit_position`` as (bins, rows, 3) (the FLS image layout) instead
-    of (rows, bins, 3).
+    of (rows, bins, 3); ping_layout (two rows): as (2 · bins, 3), row 0 reversed then
+    row 1 (the side-scan ping's layout, :class:`sim.sonar.waterfall.SSSPing`).
 
     Hit positions: cells holding a ray's footprint centre get the energy-weighted mean of
     those rays' hit points; covered cells between centres are linearly interpolated along
@@ -188,12 +190,20 @@ def form_echo(
         dens[need] = np.log(dens[need])  # numpy's log of an element: that of the whole row
     sub, src = subbox_pass(wide, k, f, link, t[R_RANGE], float(bin_width))
     np.exp(sub[2], out=sub[2])
+    if ping_layout and (bins_first or n_rows != 2):
+        raise ValueError(
+            f"ping_layout needs n_rows = 2 and bins_first False; got n_rows = {n_rows}, "
+            f"bins_first = {bins_first}"
+        )
+    layout = 1 if bins_first else (2 if ping_layout else 0)
     mean, labels, hitpos, start, end = image_pass(
-        rows, f, lab, k, sub, src, t[R_RANGE], dirs, o, n_rows, n_bins, bool(bins_first)
+        rows, f, lab, k, sub, src, t[R_RANGE], dirs, o, n_rows, n_bins, layout
     )
     if n_obj:
         r = t[R_RANGE]
-        object_pass(mean, labels, hitpos, f, lab, start, end, rows, r, dirs, o, bool(bins_first))
+        object_pass(mean, labels, hitpos, f, lab, start, end, rows, r, dirs, o, layout)
     # cells labelled −1 are NaN already: the objects only wrote cells they label
+    if ping_layout:
+        return Echo(mean, labels, hitpos)
     shape = (n_bins, n_rows, 3) if bins_first else (n_rows, n_bins, 3)
     return Echo(mean, labels, hitpos.reshape(shape))

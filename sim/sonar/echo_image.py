@@ -202,10 +202,22 @@ def _centre_means_dense(cell, n_cells, f, r, dirs):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, out):
+def _out_index(row, b, n_rows, n_bins, layout):
+    """Index of cell (row, bin b) in a position output of ``layout``: 0 row · n_bins + b,
+    1 (bins first) b · n_rows + row, 2 (side-scan ping: row 0 reversed, rows ≤ 2) row 0
+    at n_bins − 1 − b, row 1 at n_bins + b."""
+    if layout == 1:
+        return b * n_rows + row
+    if layout == 2 and row == 0:
+        return n_bins - 1 - b
+    return row * n_bins + b
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, layout, out):
     """Write into ``out`` (n_rows · n_bins, 3) the hit position of each wanted cell (cells
-    indexed row · n_bins + bin; the output likewise or, with ``bins_first``, bin · n_rows
-    + row): origin + the known means (xk, yk) linearly interpolated over the cell index
+    indexed row · n_bins + bin; the output in ``layout``, see :func:`_out_index`):
+    origin + the known means (xk, yk) linearly interpolated over the cell index
     (held constant beyond the first and last), exactly as ``origin[c] + np.interp(query,
     known, …)``; NaN where not wanted or nothing is known."""
     nk = xk.size
@@ -220,12 +232,13 @@ def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, out
     jr = np.empty(n_rows, np.int64)
     for r in range(n_rows):
         jr[r] = max(np.searchsorted(xk, r * n_bins, side="right") - 1, 0)
-    n_out, n_in = (n_bins, n_rows) if bins_first else (n_rows, n_bins)
+    n_out, n_in = (n_bins, n_rows) if layout == 1 else (n_rows, n_bins)
     for u in range(n_out):
         for v in range(n_in):
-            t = u * n_in + v
-            r = v if bins_first else u
-            q = v * n_bins + u if bins_first else t
+            r = v if layout == 1 else u
+            b = u if layout == 1 else v
+            t = _out_index(r, b, n_rows, n_bins, layout)
+            q = r * n_bins + b
             if not want[q]:
                 out[t, 0] = out[t, 1] = out[t, 2] = np.nan
                 continue
@@ -251,10 +264,11 @@ def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, out
 
 
 @numba.njit(cache=True, error_model="numpy")
-def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, bins_first):
+def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, layout):
     """Mean (n_rows, n_bins) of the background footprints, labels (n_rows, n_bins) int32
     (as :func:`label_cells`), the background hit positions (n_rows · n_bins, 3) world m
-    (:func:`_centre_means` interpolated along range; NaN where the label is −1) and each
+    in ``layout`` (:func:`_out_index`; :func:`_centre_means` interpolated along range;
+    NaN where the label is −1) and each
     footprint's cell span [start, end). ``f``:
     :func:`sim.sonar.echo_kernels.footprint_pass`'s terms; ``sub``, ``src``:
     :func:`sim.sonar.echo_kernels.subbox_pass`'s, log-weights exponentiated.
@@ -313,14 +327,14 @@ def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, bins_
     xk, yk = _centre_means(cell, n_centre, n_cells, f, r, dirs)
     pos = np.empty((n_cells, 3))
     want = labels.reshape(-1) != -1
-    _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, pos)
+    _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, layout, pos)
     return mean, labels, pos, start, end
 
 
 @numba.njit(cache=True, error_model="numpy")
-def object_pass(mean, labels, pos, f, lab, start, end, rows, r, dirs, origin, bins_first):
+def object_pass(mean, labels, pos, f, lab, start, end, rows, r, dirs, origin, layout):
     """Add the object footprints (label ≥ 1) to ``mean`` (n_rows, n_bins), ``labels``
-    and ``pos`` (n_rows · n_bins, 3; bins-first order with ``bins_first``) in place.
+    and ``pos`` (n_rows · n_bins, 3; in ``layout``, see :func:`_out_index`) in place.
 
     Each object footprint is expanded into its cells [start, end) (rays sorted by label,
     stable, so the highest id wins where objects overlap): a cell gets the footprint's
@@ -369,6 +383,6 @@ def object_pass(mean, labels, pos, f, lab, start, end, rows, r, dirs, origin, bi
                 num[slot[j], c] += ew * (origin[c] + dirs[i, c] * r[i])
     for q in range(u.size):
         cell = u[q]
-        t = (cell % n_bins) * n_rows + cell // n_bins if bins_first else cell
+        t = _out_index(cell // n_bins, cell % n_bins, n_rows, n_bins, layout)
         for c in range(3):
             pos[t, c] = num[q, c] / den[q]

@@ -25,7 +25,7 @@ from sim.sonar.echo import Echo, form_echo
 from sim.sonar.glint import corner_returns
 from sim.sonar.mount import SonarMount
 from sim.sonar.rays import RayCones, RayHits, ray_cones
-from sim.sonar.sss_samples import ping_samples
+from sim.sonar.sss_kernels import ping_samples, probe_altitude
 from sim.sonar.waterfall import SSSPing
 
 _PROBE_DEG = np.array([60.0, 65.0, 70.0, 75.0, 80.0, 85.0, 90.0])
@@ -130,13 +130,7 @@ class SideScanSonar:
         if dist is None:
             dirs = self._probe_local @ np.ascontiguousarray(R.T)
             dist = self.mount.backend.cast(data, origin, dirs, self.config.max_range).dist
-        ok = dist <= self.config.max_range  # inf (no hit) fails too
-        h = np.sort(-dirs[ok, 2] * dist[ok])
-        k = h.size
-        if k == 0:
-            return float("nan")
-        # the median as np.median computes it (mean of the middle two for even k)
-        return float(h[k // 2]) if k % 2 else float((h[k // 2 - 1] + h[k // 2]) / 2.0)
+        return float(probe_altitude(dirs, dist, float(self.config.max_range)))
 
     def _cast_ping(self, data, origin, R):
         """Altitude (m), the ping's fan, its world directions (N, 3) and ∂d/∂θ·Δθ (N, 3)
@@ -299,8 +293,9 @@ class SideScanSonar:
                 m.seabed,
                 m.object_specular,
                 m.object_gain,
+                ping_layout=True,
             )
-            mean, labels, pos = echo.mean, echo.labels, echo.hit_position
+            mean, labels, pos = echo.mean, echo.labels, echo.hit_position  # pos: ping layout
             mean = self._add_corners(mean, hits, p_port, dirs, gain, rows)
         else:
             out = []
@@ -339,7 +334,7 @@ class SideScanSonar:
                 )
             mean = np.concatenate([e.mean for e in out])
             labels = np.concatenate([e.labels for e in out])
-            pos = np.concatenate([e.hit_position for e in out])
+            pos = np.concatenate([out[0].hit_position[0, ::-1], out[1].hit_position[0]])
         if self.chain is not None:
             inten = self.chain.finish(mean, altitude, 0.5 * (p_port + p_stbd), rng)
             inten = np.concatenate([inten[0, ::-1], inten[1]])
@@ -349,7 +344,7 @@ class SideScanSonar:
             intensity=inten,
             slant_range=self.slant_range,
             labels=np.concatenate([labels[0, ::-1], labels[1]]),
-            hit_position=np.concatenate([pos[0, ::-1], pos[1]]),
+            hit_position=pos,
             sensor_position=np.stack([p_port, p_stbd]),
             sensor_rotation=R,
             time=float(data.time),

@@ -1,13 +1,15 @@
-"""Compiled receive steps of the plain side-scan ping (no ``AcousticConfig.realism``):
-speckle and noise, time-varying gain and display compression, written straight into the
-ping's sample layout (port far → near, then starboard near → far).
+"""Compiled per-ping steps of the side-scan sonar: the nadir probe's altitude and the
+plain receive chain (no ``AcousticConfig.realism``) — speckle and noise, time-varying
+gain and display compression, written straight into the ping's sample layout (port far
+→ near, then starboard near → far).
 
-The same floating-point operations in the same order as
-:func:`sim.sonar.acoustics.finish_samples` (speckle draws from the caller's numpy
+The same floating-point operations in the same order as the numpy code they replace
+(``SideScanSonar._altitude``'s median of the probe heights,
+:func:`sim.sonar.acoustics.finish_samples`; speckle draws from the caller's numpy
 Generator, in its order; ``log10`` stays numpy's, applied in place between the two
 passes: numpy's result for an element does not depend on the array around it, while
-libm's may differ in the last bit), so the samples are the same bytes
-(tests/sim/sonar/test_sss_samples.py). Compiled by numba on first use, cached on disk.
+libm's may differ in the last bit), so the outputs are the same bytes
+(tests/sim/sonar/test_sss_kernels.py). Compiled by numba on first use, cached on disk.
 """
 
 from __future__ import annotations
@@ -16,6 +18,23 @@ import numba
 import numpy as np
 
 SPECKLE_CODES = {"none": 0, "rayleigh": 1, "k": 2}
+
+
+@numba.njit(cache=True, error_model="numpy")
+def probe_altitude(dirs, dist, max_range):
+    """Median (m) of the heights −d_z·dist of the probe rays ``dirs`` (P, 3) world frame,
+    hit at ``dist`` (P,) m, within ``max_range`` (inf, no hit, is not); NaN if none. The
+    median as np.median forms it (mean of the middle two for an even count)."""
+    h = np.empty(dist.size)
+    k = 0
+    for i in range(dist.size):
+        if dist[i] <= max_range:
+            h[k] = -dirs[i, 2] * dist[i]
+            k += 1
+    if k == 0:
+        return np.nan
+    h = np.sort(h[:k])
+    return h[k // 2] if k % 2 else (h[k // 2 - 1] + h[k // 2]) / 2.0
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -1,4 +1,4 @@
-"""The compiled side-scan receive steps (sim/sonar/sss_samples.py) against the numpy
+"""The compiled side-scan receive steps (sim.sonar.sss_kernels.py) against the numpy
 chain they replace in the ping (acoustics.finish_samples, then the port reversal)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 
 from sim.sonar.acoustics import finish_samples, tvg_gain
 from sim.sonar.config import AcousticConfig
-from sim.sonar.sss_samples import ping_samples
+from sim.sonar.sss_kernels import ping_samples
 
 
 @pytest.mark.parametrize("speckle", ["none", "rayleigh", "k"])
@@ -37,3 +37,25 @@ def test_ping_samples_same_bytes_as_finish_samples(speckle, tvg, log, floor):
     assert a.tobytes() == ref.tobytes()
     if log:
         assert (a == 0.0).any() and (a == 1.0).any() and ((a > 0.0) & (a < 1.0)).any()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_probe_altitude_is_numpy_median_of_the_hits_in_range(seed):
+    """Second implementation: np.median of −d_z·dist over the rays with dist ≤ max_range
+    (odd and even counts, misses at inf, hits beyond range); NaN when none is in range."""
+    from sim.sonar.sss_kernels import probe_altitude
+
+    rng = np.random.default_rng(seed)
+    n = 14
+    dirs = rng.normal(size=(n, 3))
+    dirs[:, 2] = -np.abs(dirs[:, 2])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    dist = rng.uniform(1.0, 80.0, n)
+    dist[rng.uniform(size=n) < 0.3] = np.inf
+    ok = dist <= 50.0
+    got = probe_altitude(dirs, dist, 50.0)
+    if ok.any():
+        assert got == np.median(-dirs[ok, 2] * dist[ok])
+    else:
+        assert np.isnan(got)
+    assert np.isnan(probe_altitude(dirs, np.full(n, np.inf), 50.0))
