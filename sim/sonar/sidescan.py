@@ -38,7 +38,9 @@ class RayFan:
     (N − 1,) bool, True where rays j and j + 1 are consecutive in θ; cones: bounding
     cones (sensor frame) of ``directions`` followed by the nadir probe's rays;
     side_cones: (port, starboard) cones of each side's directions for a two-site sonar
-    (each side cast from its own site; None for one site); local:
+    (each side cast from its own site; None for one site); port_probe_cones: a two-site
+    sonar's cones of the port directions followed by the probe's (cast together from the
+    port site; None for one site); local:
     (2N + P, 3) the directions, the P probe rays and the d_directions in one array (one
     rotation per ping turns all three into the world frame; ``directions`` and
     ``d_directions`` are views of it)."""
@@ -51,6 +53,7 @@ class RayFan:
     neighbours: np.ndarray
     cones: RayCones
     side_cones: tuple[RayCones, RayCones] | None = None
+    port_probe_cones: RayCones | None = None
 
 
 class SideScanSonar:
@@ -134,32 +137,39 @@ class SideScanSonar:
 
     def _cast_ping(self, data, origin, R):
         """Altitude (m), the ping's fan, its world directions (N, 3) and ∂d/∂θ·Δθ (N, 3)
-        and its hits. The nadir probe is cast in one batch with the cached fan's rays;
-        the fan is cast again only when the probe's altitude selects another fan (each
-        ray's hit does not depend on the batch, so the result equals probing first and
-        casting the fan after). ``fan.local @ R.T`` rotates rays, probe and derivatives
-        in one product (a contiguous Rᵀ: OpenBLAS's fast path, the same bytes)."""
+        and the hits of the rays cast from ``origin``: all N (one site) or the port half
+        (two sites; the starboard half is cast from its own site). The nadir probe is
+        cast in one batch with the cached fan's rays; they are cast again only when the
+        probe's altitude selects another fan (each ray's hit does not depend on the
+        batch, so the result equals probing first and casting the fan after).
+        ``fan.local @ R.T`` rotates rays, probe and derivatives in one product (a
+        contiguous Rᵀ: OpenBLAS's fast path, the same bytes)."""
         m = self.mount
         Rt = np.ascontiguousarray(R.T)
         prev = self._fan_cache[1] if self._fan_cache is not None else None
         n_p = self._probe_local.shape[0]
+        two = prev is not None and prev.port_probe_cones is not None
         if prev is None:
             altitude = self._altitude(data, origin, R)
         else:
             n = prev.directions.shape[0]
+            nc = n // 2 if two else n
             world = prev.local @ Rt
-            both = world[: n + n_p]
-            h = m.backend.cast(data, origin, both, m.cutoff, prev.cones.rotated(R))
-            altitude = self._altitude(data, origin, R, both[n:], h.dist[n:])
+            both = np.concatenate([world[:nc], world[n : n + n_p]]) if two else world[: n + n_p]
+            cones = prev.port_probe_cones if two else prev.cones
+            h = m.backend.cast(data, origin, both, m.cutoff, cones.rotated(R))
+            altitude = self._altitude(data, origin, R, both[nc:], h.dist[nc:])
         fan = self.ray_fan(altitude)
         if fan is prev:
-            hits = RayHits(h.dist[:n], h.geom[:n], h.normal[:n])
+            hits = RayHits(h.dist[:nc], h.geom[:nc], h.normal[:nc])
             return altitude, fan, world[:n], world[n + n_p :], hits
         n = fan.directions.shape[0]
+        two = fan.port_probe_cones is not None
+        nc = n // 2 if two else n
         world = fan.local @ Rt
         dirs = world[:n]
-        cones = replace(fan.cones.rotated(R), n=n)
-        hits = m.backend.cast(data, origin, dirs, m.cutoff, cones)
+        cones = replace((fan.port_probe_cones if two else fan.cones).rotated(R), n=nc)
+        hits = m.backend.cast(data, origin, dirs[:nc], m.cutoff, cones)
         return altitude, fan, dirs, world[n + n_p :], hits
 
     def depression_angles(self, altitude: float) -> tuple[np.ndarray, np.ndarray]:
@@ -200,6 +210,7 @@ class SideScanSonar:
         n = d_loc.shape[0]
         j = np.arange(n)
         local = np.concatenate([d_loc, self._probe_local, parts[0][1], parts[1][1]])
+        one_site = self.mount.site_ids[0] == self.mount.site_ids[1]
         fan = RayFan(
             local=local,
             directions=local[:n],
@@ -208,10 +219,13 @@ class SideScanSonar:
             rows=np.repeat(np.array([0, 1], np.int64), parts[0][0].shape[0]),
             neighbours=(j % nt < nt - 1)[:-1],
             cones=ray_cones(np.concatenate([d_loc, self._probe_local])),
-            side_cones=(
+            side_cones=None
+            if one_site
+            else (ray_cones(d_loc[: n // 2]), ray_cones(d_loc[n // 2 :])),
+            port_probe_cones=(
                 None
-                if self.mount.site_ids[0] == self.mount.site_ids[1]
-                else (ray_cones(d_loc[: n // 2]), ray_cones(d_loc[n // 2 :]))
+                if one_site
+                else ray_cones(np.concatenate([d_loc[: n // 2], self._probe_local]))
             ),
         )
         self._fan_cache = (key, fan)
@@ -263,13 +277,7 @@ class SideScanSonar:
         S = c.samples_per_side
         p_port, R = m.pose(data, m.site_ids[0])
         p_stbd, _ = m.pose(data, m.site_ids[1])
-        if m.site_ids[0] == m.site_ids[1]:
-            altitude, fan, dirs, d_dirs, hits = self._cast_ping(data, p_port, R)
-        else:
-            altitude = self._altitude(data, p_port, R)
-            fan = self.ray_fan(altitude)
-            Rt = np.ascontiguousarray(R.T)
-            dirs, d_dirs = fan.directions @ Rt, fan.d_directions @ Rt
+        altitude, fan, dirs, d_dirs, hits = self._cast_ping(data, p_port, R)
         gain, rows, nbrs = fan.gain, fan.rows, fan.neighbours
         n_side = dirs.shape[0] // 2
         if m.site_ids[0] == m.site_ids[1]:
@@ -301,7 +309,11 @@ class SideScanSonar:
             out = []
             for k, p in enumerate((p_port, p_stbd)):
                 sl = slice(k * n_side, (k + 1) * n_side)
-                h = m.backend.cast(data, p, dirs[sl], m.cutoff, fan.side_cones[k].rotated(R))
+                h = (
+                    hits  # the port side's, cast with the probe
+                    if k == 0
+                    else m.backend.cast(data, p, dirs[sl], m.cutoff, fan.side_cones[k].rotated(R))
+                )
                 out.append(
                     form_echo(
                         h,
