@@ -46,7 +46,10 @@ from sim.sonar.echo_kernels import (
     R_RANGE,
     R_REFL,
     R_SOC,
+    add_lobe,
     footprint_pass,
+    lobe_cos,
+    lobe_exponent,
     ray_pass,
     subbox_pass,
 )
@@ -171,11 +174,13 @@ def form_echo(
     # Lambert μ cos²θ (μ folded into gain) plus the optional specular lobe, per area
     # r²ΔΩ/cosθ: E ∝ (μ cos²θ + σ_s(θ)) / cosθ; the lobe is below e^-12.5 of its peak
     # beyond 5 widths: evaluated only nearer (``near``)
-    if specular is not None:
+    if specular is not None:  # numpy's arccos and exp, the arithmetic compiled
         spec_peak, spec_w = specular
-        cn = np.minimum(t[R_COS][near], 1.0)
+        cn = lobe_cos(t, near)
         th = np.arccos(cn)
-        t[R_SOC][near] += spec_peak * np.exp(-0.5 * (th / spec_w) ** 2) / np.maximum(cn, 0.05)
+        lobe_exponent(th, float(spec_w))
+        np.exp(th, out=th)
+        add_lobe(t, near, cn, th, float(spec_peak))
     if seabed is not None or object_specular is not None or object_gain != 1.0:
         _realistic_sigma(t, lab, hits.normal, dirs, o, seabed, object_specular, object_gain)
     np.exp(t[R_ATT], out=t[R_ATT])  # numpy's exp, as the array version, for the same bytes

@@ -193,3 +193,30 @@ def subbox_pass(wide, k, f, link, r, bin_width):
             sub[2, p] = min(max(slope * (0.5 * (lo + hi) - fc[ii]), -30.0), 30.0)
             p += 1
     return sub, src
+
+
+@numba.njit(cache=True, error_model="numpy")
+def lobe_cos(t, near):
+    """min(cos θ, 1) of the rays ``near`` (:func:`ray_pass`'s terms ``t``): the argument
+    of the specular lobe's arccos."""
+    cn = np.empty(near.size)
+    for q in range(near.size):
+        cn[q] = min(t[R_COS, near[q]], 1.0)
+    return cn
+
+
+@numba.njit(cache=True, error_model="numpy")
+def lobe_exponent(th, width):
+    """The specular lobe's exponent −0.5·(θ / width)², in place over θ (rad)."""
+    for q in range(th.size):
+        x = th[q] / width
+        th[q] = -0.5 * (x * x)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def add_lobe(t, near, cn, lobe, peak):
+    """Add the specular lobe to σ/(μ cos θ) of the rays ``near``: peak · lobe /
+    max(cos θ, 0.05) (``lobe`` = exp of :func:`lobe_exponent`, ``cn`` of
+    :func:`lobe_cos`)."""
+    for q in range(near.size):
+        t[R_SOC, near[q]] += peak * lobe[q] / max(cn[q], 0.05)
