@@ -235,10 +235,11 @@ def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, layout, out):
     n_out, n_in = (n_bins, n_rows) if layout == 1 else (n_rows, n_bins)
     for u in range(n_out):
         for v in range(n_in):
+            t = u * n_in + v  # the output in its own order (FLS: 131k cells, keep it lean)
             r = v if layout == 1 else u
-            b = u if layout == 1 else v
-            t = _out_index(r, b, n_rows, n_bins, layout)
-            q = r * n_bins + b
+            q = v * n_bins + u if layout == 1 else t
+            if layout == 2 and r == 0:
+                t = n_bins - 1 - v
             if not want[q]:
                 out[t, 0] = out[t, 1] = out[t, 2] = np.nan
                 continue
