@@ -21,7 +21,8 @@ STAGES = {
         "echo_kernels.py",
         "echo_image.py",
     ),
-    "speckle, noise, TVG, log compression": (
+    "speckle, noise, TVG, log compression (+ probe altitude)": (
+        "sss_kernels.py",
         "acoustics.py",
         "chain.py",
         "speckle.py",

@@ -46,7 +46,10 @@ from sim.sonar.echo_kernels import (
     R_RANGE,
     R_REFL,
     R_SOC,
+    add_lobe,
     footprint_pass,
+    lobe_cos,
+    lobe_exponent,
     ray_pass,
     subbox_pass,
 )
@@ -64,7 +67,7 @@ class Echo:
 
     mean: np.ndarray
     labels: np.ndarray
-    hit_position: np.ndarray  # (bins, rows, 3) when form_echo(..., bins_first=True)
+    hit_position: np.ndarray  # (bins, rows, 3) with bins_first, (2·bins, 3) with ping_layout
 
 
 def _splat_energy(rows, a, b, e, n_rows, n_bins):
@@ -130,6 +133,7 @@ def form_echo(
     object_specular: tuple[float, float] | None = None,
     object_gain: float = 1.0,
     bins_first: bool = False,
+    ping_layout: bool = False,
 ) -> Echo:
     """Bin ray hits into (rows, bins) mean intensity, labels and hit positions.
 
@@ -152,7 +156,8 @@ def form_echo(
     object hits' Lambert term (a target's own μ over the seabed's ``lambert_mu_db``).
 
     bins_first: return ``hit_position`` as (bins, rows, 3) (the FLS image layout) instead
-    of (rows, bins, 3).
+    of (rows, bins, 3); ping_layout (two rows): as (2 · bins, 3), row 0 reversed then
+    row 1 (the side-scan ping's layout, :class:`sim.sonar.waterfall.SSSPing`).
 
     Hit positions: cells holding a ray's footprint centre get the energy-weighted mean of
     those rays' hit points; covered cells between centres are linearly interpolated along
@@ -169,30 +174,41 @@ def form_echo(
     # Lambert μ cos²θ (μ folded into gain) plus the optional specular lobe, per area
     # r²ΔΩ/cosθ: E ∝ (μ cos²θ + σ_s(θ)) / cosθ; the lobe is below e^-12.5 of its peak
     # beyond 5 widths: evaluated only nearer (``near``)
-    if specular is not None:
+    if specular is not None:  # numpy's arccos and exp, the arithmetic compiled
         spec_peak, spec_w = specular
-        cn = np.minimum(t[R_COS][near], 1.0)
+        cn = lobe_cos(t, near)
         th = np.arccos(cn)
-        t[R_SOC][near] += spec_peak * np.exp(-0.5 * (th / spec_w) ** 2) / np.maximum(cn, 0.05)
+        lobe_exponent(th, float(spec_w))
+        np.exp(th, out=th)
+        add_lobe(t, near, cn, th, float(spec_peak))
     if seabed is not None or object_specular is not None or object_gain != 1.0:
         _realistic_sigma(t, lab, hits.normal, dirs, o, seabed, object_specular, object_gain)
     np.exp(t[R_ATT], out=t[R_ATT])  # numpy's exp, as the array version, for the same bytes
     use_links = neighbours is not None
-    f, link, k, wide = footprint_pass(
+    f, link, k, wide, need = footprint_pass(
         gain, t, lab, neighbours if use_links else _NO_LINKS, use_links, float(r_min),
         float(bin_width), n_bins, float(footprint_scale), MIN_EXTENT_BINS, MAX_EXTENT_BINS,
         MAX_EXTENT_FRACTION, SUBBOX_BINS, MAX_SUBBOXES,
     )  # fmt: skip
-    if wide.size and use_links:
-        np.log(f[F_DENS], out=f[F_DENS])  # log box densities for the sub-box slopes
+    if wide.size and use_links:  # log box densities for the sub-box slopes, where read
+        dens = f[F_DENS]
+        dens[need] = np.log(dens[need])  # numpy's log of an element: that of the whole row
     sub, src = subbox_pass(wide, k, f, link, t[R_RANGE], float(bin_width))
     np.exp(sub[2], out=sub[2])
+    if ping_layout and (bins_first or n_rows != 2):
+        raise ValueError(
+            f"ping_layout needs n_rows = 2 and bins_first False; got n_rows = {n_rows}, "
+            f"bins_first = {bins_first}"
+        )
+    layout = 1 if bins_first else (2 if ping_layout else 0)
     mean, labels, hitpos, start, end = image_pass(
-        rows, f, lab, k, sub, src, t[R_RANGE], dirs, o, n_rows, n_bins, bool(bins_first)
+        rows, f, lab, k, sub, src, t[R_RANGE], dirs, o, n_rows, n_bins, layout
     )
     if n_obj:
         r = t[R_RANGE]
-        object_pass(mean, labels, hitpos, f, lab, start, end, rows, r, dirs, o, bool(bins_first))
+        object_pass(mean, labels, hitpos, f, lab, start, end, rows, r, dirs, o, layout)
     # cells labelled −1 are NaN already: the objects only wrote cells they label
+    if ping_layout:
+        return Echo(mean, labels, hitpos)
     shape = (n_bins, n_rows, 3) if bins_first else (n_rows, n_bins, 3)
     return Echo(mean, labels, hitpos.reshape(shape))

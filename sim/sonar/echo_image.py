@@ -130,27 +130,13 @@ def _centre_means(cell, m, n_cells, f, r, dirs):
     """Known cells (ascending) and their energy-weighted mean hit offsets (3, K) from the
     origin: ``cell`` (N,) the cell row · n_bins + floor(fc) holding ray i's background
     footprint centre (−1: none; ``m`` rays have one); each known cell gets
-    Σ (E + 1e-300)·r·d / Σ (E + 1e-300) over its rays, summed in input order (rays
-    ordered by cell, stably: a counting sort when the image has few cells per ray, as
-    the side-scan's, else a merge sort of the m rays, as for FLS images)."""
+    Σ (E + 1e-300)·r·d / Σ (E + 1e-300) over its rays, summed in input order (when the
+    image has few cells per ray, as the side-scan's, by accumulating into per-cell sums
+    in ray order; else over the m rays merge-sorted by cell, as for FLS images)."""
     if n_cells <= 4 * m:
-        cnt = np.zeros(n_cells, np.int64)
-        for i in range(cell.size):
-            if cell[i] >= 0:
-                cnt[cell[i]] += 1
-        tot = 0
-        for q in range(n_cells):  # counts → each cell's first slot
-            c = cnt[q]
-            cnt[q] = tot
-            tot += c
-        order = np.empty(m, np.int64)
-        for i in range(cell.size):
-            if cell[i] >= 0:
-                order[cnt[cell[i]]] = i
-                cnt[cell[i]] += 1
-    else:
-        idx = np.flatnonzero(cell >= 0)
-        order = idx[np.argsort(cell[idx], kind="mergesort")]
+        return _centre_means_dense(cell, n_cells, f, r, dirs)
+    idx = np.flatnonzero(cell >= 0)
+    order = idx[np.argsort(cell[idx], kind="mergesort")]
     tot = order.size
     nk = 0
     for p in range(tot):
@@ -184,10 +170,54 @@ def _centre_means(cell, m, n_cells, f, r, dirs):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, out):
+def _centre_means_dense(cell, n_cells, f, r, dirs):
+    """:func:`_centre_means` by per-cell sums (4 × n_cells) accumulated in ray order: the
+    same additions in the same order as the sorted pass, without the sort."""
+    acc = np.zeros((n_cells, 4))  # Σ ew, Σ ew·r·d (x, y, z)
+    seen = np.zeros(n_cells, np.bool_)
+    for i in range(cell.size):
+        q = cell[i]
+        if q >= 0:
+            ew = f[F_ENERGY, i] + 1e-300
+            ewr = ew * r[i]
+            seen[q] = True
+            acc[q, 0] += ew
+            acc[q, 1] += ewr * dirs[i, 0]
+            acc[q, 2] += ewr * dirs[i, 1]
+            acc[q, 3] += ewr * dirs[i, 2]
+    nk = 0
+    for q in range(n_cells):
+        if seen[q]:
+            nk += 1
+    xk = np.empty(nk)
+    yk = np.empty((3, nk))
+    j = 0
+    for q in range(n_cells):
+        if seen[q]:
+            xk[j] = q
+            for c in range(3):
+                yk[c, j] = acc[q, c + 1] / acc[q, 0]
+            j += 1
+    return xk, yk
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _out_index(row, b, n_rows, n_bins, layout):
+    """Index of cell (row, bin b) in a position output of ``layout``: 0 row · n_bins + b,
+    1 (bins first) b · n_rows + row, 2 (side-scan ping: row 0 reversed, rows ≤ 2) row 0
+    at n_bins − 1 − b, row 1 at n_bins + b."""
+    if layout == 1:
+        return b * n_rows + row
+    if layout == 2 and row == 0:
+        return n_bins - 1 - b
+    return row * n_bins + b
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, layout, out):
     """Write into ``out`` (n_rows · n_bins, 3) the hit position of each wanted cell (cells
-    indexed row · n_bins + bin; the output likewise or, with ``bins_first``, bin · n_rows
-    + row): origin + the known means (xk, yk) linearly interpolated over the cell index
+    indexed row · n_bins + bin; the output in ``layout``, see :func:`_out_index`):
+    origin + the known means (xk, yk) linearly interpolated over the cell index
     (held constant beyond the first and last), exactly as ``origin[c] + np.interp(query,
     known, …)``; NaN where not wanted or nothing is known."""
     nk = xk.size
@@ -202,12 +232,14 @@ def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, out
     jr = np.empty(n_rows, np.int64)
     for r in range(n_rows):
         jr[r] = max(np.searchsorted(xk, r * n_bins, side="right") - 1, 0)
-    n_out, n_in = (n_bins, n_rows) if bins_first else (n_rows, n_bins)
+    n_out, n_in = (n_bins, n_rows) if layout == 1 else (n_rows, n_bins)
     for u in range(n_out):
         for v in range(n_in):
-            t = u * n_in + v
-            r = v if bins_first else u
-            q = v * n_bins + u if bins_first else t
+            t = u * n_in + v  # the output in its own order (FLS: 131k cells, keep it lean)
+            r = v if layout == 1 else u
+            q = v * n_bins + u if layout == 1 else t
+            if layout == 2 and r == 0:
+                t = n_bins - 1 - v
             if not want[q]:
                 out[t, 0] = out[t, 1] = out[t, 2] = np.nan
                 continue
@@ -233,10 +265,11 @@ def _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, out
 
 
 @numba.njit(cache=True, error_model="numpy")
-def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, bins_first):
+def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, layout):
     """Mean (n_rows, n_bins) of the background footprints, labels (n_rows, n_bins) int32
     (as :func:`label_cells`), the background hit positions (n_rows · n_bins, 3) world m
-    (:func:`_centre_means` interpolated along range; NaN where the label is −1) and each
+    in ``layout`` (:func:`_out_index`; :func:`_centre_means` interpolated along range;
+    NaN where the label is −1) and each
     footprint's cell span [start, end). ``f``:
     :func:`sim.sonar.echo_kernels.footprint_pass`'s terms; ``sub``, ``src``:
     :func:`sim.sonar.echo_kernels.subbox_pass`'s, log-weights exponentiated.
@@ -295,14 +328,14 @@ def image_pass(rows, f, lab, k, sub, src, r, dirs, origin, n_rows, n_bins, bins_
     xk, yk = _centre_means(cell, n_centre, n_cells, f, r, dirs)
     pos = np.empty((n_cells, 3))
     want = labels.reshape(-1) != -1
-    _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, bins_first, pos)
+    _interpolate_positions(xk, yk, origin, want, n_rows, n_bins, layout, pos)
     return mean, labels, pos, start, end
 
 
 @numba.njit(cache=True, error_model="numpy")
-def object_pass(mean, labels, pos, f, lab, start, end, rows, r, dirs, origin, bins_first):
+def object_pass(mean, labels, pos, f, lab, start, end, rows, r, dirs, origin, layout):
     """Add the object footprints (label ≥ 1) to ``mean`` (n_rows, n_bins), ``labels``
-    and ``pos`` (n_rows · n_bins, 3; bins-first order with ``bins_first``) in place.
+    and ``pos`` (n_rows · n_bins, 3; in ``layout``, see :func:`_out_index`) in place.
 
     Each object footprint is expanded into its cells [start, end) (rays sorted by label,
     stable, so the highest id wins where objects overlap): a cell gets the footprint's
@@ -351,6 +384,6 @@ def object_pass(mean, labels, pos, f, lab, start, end, rows, r, dirs, origin, bi
                 num[slot[j], c] += ew * (origin[c] + dirs[i, c] * r[i])
     for q in range(u.size):
         cell = u[q]
-        t = (cell % n_bins) * n_rows + cell // n_bins if bins_first else cell
+        t = _out_index(cell // n_bins, cell % n_bins, n_rows, n_bins, layout)
         for c in range(3):
             pos[t, c] = num[q, c] / den[q]

@@ -77,7 +77,11 @@ def footprint_pass(
     between consecutive ``neighbours`` rays on the same labelled surface (all False
     without ``use_links``), whose facing footprint ends meet where their shared angular
     cell edge lands, the sub-box count per footprint (ceil(width / subbox_bins) in [1,
-    max_subboxes]) and the indices of the footprints with more than one."""
+    max_subboxes]), the indices of the footprints with more than one and those of the rays
+    whose log density the sub-box slopes read (each such footprint and its neighbours).
+
+    Simple loops over the rays (not one fused loop: LLVM vectorizes the first, and the
+    fused loop ran 1.8× slower)."""
     n = lab.size
     f = np.empty((6, n))
     off = n_bins + max_ext + 1.0  # off the end: contributes nothing
@@ -107,12 +111,18 @@ def footprint_pass(
         if k[i] > 1:
             nw += 1
     wide = np.empty(nw, np.int64)
+    need = np.empty(3 * nw, np.int64)
     p = 0
+    m = 0
     for i in range(n):
         if k[i] > 1:
             wide[p] = i
             p += 1
-    return f, link, k, wide
+            for j in range(max(i - 1, 0), min(i + 2, n)):
+                if m == 0 or j > need[m - 1]:
+                    need[m] = j
+                    m += 1
+    return f, link, k, wide, need[:m]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -183,3 +193,30 @@ def subbox_pass(wide, k, f, link, r, bin_width):
             sub[2, p] = min(max(slope * (0.5 * (lo + hi) - fc[ii]), -30.0), 30.0)
             p += 1
     return sub, src
+
+
+@numba.njit(cache=True, error_model="numpy")
+def lobe_cos(t, near):
+    """min(cos θ, 1) of the rays ``near`` (:func:`ray_pass`'s terms ``t``): the argument
+    of the specular lobe's arccos."""
+    cn = np.empty(near.size)
+    for q in range(near.size):
+        cn[q] = min(t[R_COS, near[q]], 1.0)
+    return cn
+
+
+@numba.njit(cache=True, error_model="numpy")
+def lobe_exponent(th, width):
+    """The specular lobe's exponent −0.5·(θ / width)², in place over θ (rad)."""
+    for q in range(th.size):
+        x = th[q] / width
+        th[q] = -0.5 * (x * x)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def add_lobe(t, near, cn, lobe, peak):
+    """Add the specular lobe to σ/(μ cos θ) of the rays ``near``: peak · lobe /
+    max(cos θ, 0.05) (``lobe`` = exp of :func:`lobe_exponent`, ``cn`` of
+    :func:`lobe_cos`)."""
+    for q in range(near.size):
+        t[R_SOC, near[q]] += peak * lobe[q] / max(cn[q], 0.05)

@@ -18,13 +18,14 @@ from dataclasses import dataclass, replace
 import mujoco
 import numpy as np
 
-from sim.sonar.acoustics import beam_pattern, finish_samples, tvg_gain
+from sim.sonar.acoustics import beam_pattern, tvg_gain
 from sim.sonar.chain import SideScanChain
 from sim.sonar.config import SSSConfig, WaterLike
 from sim.sonar.echo import Echo, form_echo
 from sim.sonar.glint import corner_returns
 from sim.sonar.mount import SonarMount
 from sim.sonar.rays import RayCones, RayHits, ray_cones
+from sim.sonar.sss_kernels import ping_samples, probe_altitude
 from sim.sonar.waterfall import SSSPing
 
 _PROBE_DEG = np.array([60.0, 65.0, 70.0, 75.0, 80.0, 85.0, 90.0])
@@ -37,7 +38,9 @@ class RayFan:
     (N − 1,) bool, True where rays j and j + 1 are consecutive in θ; cones: bounding
     cones (sensor frame) of ``directions`` followed by the nadir probe's rays;
     side_cones: (port, starboard) cones of each side's directions for a two-site sonar
-    (each side cast from its own site; None for one site); local:
+    (each side cast from its own site; None for one site); port_probe_cones: a two-site
+    sonar's cones of the port directions followed by the probe's (cast together from the
+    port site; None for one site); local:
     (2N + P, 3) the directions, the P probe rays and the d_directions in one array (one
     rotation per ping turns all three into the world frame; ``directions`` and
     ``d_directions`` are views of it)."""
@@ -50,6 +53,7 @@ class RayFan:
     neighbours: np.ndarray
     cones: RayCones
     side_cones: tuple[RayCones, RayCones] | None = None
+    port_probe_cones: RayCones | None = None
 
 
 class SideScanSonar:
@@ -114,7 +118,9 @@ class SideScanSonar:
             ]
         )
         self._fan_cache = None
+        # the plain receive chain's gain and noise (as acoustics.finish_samples forms them)
         self._tvg = tvg_gain(self.ranges, self.mount.alpha_db_m, c.acoustic.tvg)
+        self._noise = 10.0 ** (c.acoustic.noise_level_db / 10.0)
         rz = c.acoustic.realism
         self.chain = SideScanChain(c, self.mount, self.ranges) if rz is not None else None
 
@@ -127,42 +133,43 @@ class SideScanSonar:
         if dist is None:
             dirs = self._probe_local @ np.ascontiguousarray(R.T)
             dist = self.mount.backend.cast(data, origin, dirs, self.config.max_range).dist
-        ok = dist <= self.config.max_range  # inf (no hit) fails too
-        h = np.sort(-dirs[ok, 2] * dist[ok])
-        k = h.size
-        if k == 0:
-            return float("nan")
-        # the median as np.median computes it (mean of the middle two for even k)
-        return float(h[k // 2]) if k % 2 else float((h[k // 2 - 1] + h[k // 2]) / 2.0)
+        return float(probe_altitude(dirs, dist, float(self.config.max_range)))
 
     def _cast_ping(self, data, origin, R):
         """Altitude (m), the ping's fan, its world directions (N, 3) and ∂d/∂θ·Δθ (N, 3)
-        and its hits. The nadir probe is cast in one batch with the cached fan's rays;
-        the fan is cast again only when the probe's altitude selects another fan (each
-        ray's hit does not depend on the batch, so the result equals probing first and
-        casting the fan after). ``fan.local @ R.T`` rotates rays, probe and derivatives
-        in one product (a contiguous Rᵀ: OpenBLAS's fast path, the same bytes)."""
+        and the hits of the rays cast from ``origin``: all N (one site) or the port half
+        (two sites; the starboard half is cast from its own site). The nadir probe is
+        cast in one batch with the cached fan's rays; they are cast again only when the
+        probe's altitude selects another fan (each ray's hit does not depend on the
+        batch, so the result equals probing first and casting the fan after).
+        ``fan.local @ R.T`` rotates rays, probe and derivatives in one product (a
+        contiguous Rᵀ: OpenBLAS's fast path, the same bytes)."""
         m = self.mount
         Rt = np.ascontiguousarray(R.T)
         prev = self._fan_cache[1] if self._fan_cache is not None else None
         n_p = self._probe_local.shape[0]
+        two = prev is not None and prev.port_probe_cones is not None
         if prev is None:
             altitude = self._altitude(data, origin, R)
         else:
             n = prev.directions.shape[0]
+            nc = n // 2 if two else n
             world = prev.local @ Rt
-            both = world[: n + n_p]
-            h = m.backend.cast(data, origin, both, m.cutoff, prev.cones.rotated(R))
-            altitude = self._altitude(data, origin, R, both[n:], h.dist[n:])
+            both = np.concatenate([world[:nc], world[n : n + n_p]]) if two else world[: n + n_p]
+            cones = prev.port_probe_cones if two else prev.cones
+            h = m.backend.cast(data, origin, both, m.cutoff, cones.rotated(R))
+            altitude = self._altitude(data, origin, R, both[nc:], h.dist[nc:])
         fan = self.ray_fan(altitude)
         if fan is prev:
-            hits = RayHits(h.dist[:n], h.geom[:n], h.normal[:n])
+            hits = RayHits(h.dist[:nc], h.geom[:nc], h.normal[:nc])
             return altitude, fan, world[:n], world[n + n_p :], hits
         n = fan.directions.shape[0]
+        two = fan.port_probe_cones is not None
+        nc = n // 2 if two else n
         world = fan.local @ Rt
         dirs = world[:n]
-        cones = replace(fan.cones.rotated(R), n=n)
-        hits = m.backend.cast(data, origin, dirs, m.cutoff, cones)
+        cones = replace((fan.port_probe_cones if two else fan.cones).rotated(R), n=nc)
+        hits = m.backend.cast(data, origin, dirs[:nc], m.cutoff, cones)
         return altitude, fan, dirs, world[n + n_p :], hits
 
     def depression_angles(self, altitude: float) -> tuple[np.ndarray, np.ndarray]:
@@ -203,6 +210,7 @@ class SideScanSonar:
         n = d_loc.shape[0]
         j = np.arange(n)
         local = np.concatenate([d_loc, self._probe_local, parts[0][1], parts[1][1]])
+        one_site = self.mount.site_ids[0] == self.mount.site_ids[1]
         fan = RayFan(
             local=local,
             directions=local[:n],
@@ -211,10 +219,13 @@ class SideScanSonar:
             rows=np.repeat(np.array([0, 1], np.int64), parts[0][0].shape[0]),
             neighbours=(j % nt < nt - 1)[:-1],
             cones=ray_cones(np.concatenate([d_loc, self._probe_local])),
-            side_cones=(
+            side_cones=None
+            if one_site
+            else (ray_cones(d_loc[: n // 2]), ray_cones(d_loc[n // 2 :])),
+            port_probe_cones=(
                 None
-                if self.mount.site_ids[0] == self.mount.site_ids[1]
-                else (ray_cones(d_loc[: n // 2]), ray_cones(d_loc[n // 2 :]))
+                if one_site
+                else ray_cones(np.concatenate([d_loc[: n // 2], self._probe_local]))
             ),
         )
         self._fan_cache = (key, fan)
@@ -266,13 +277,7 @@ class SideScanSonar:
         S = c.samples_per_side
         p_port, R = m.pose(data, m.site_ids[0])
         p_stbd, _ = m.pose(data, m.site_ids[1])
-        if m.site_ids[0] == m.site_ids[1]:
-            altitude, fan, dirs, d_dirs, hits = self._cast_ping(data, p_port, R)
-        else:
-            altitude = self._altitude(data, p_port, R)
-            fan = self.ray_fan(altitude)
-            Rt = np.ascontiguousarray(R.T)
-            dirs, d_dirs = fan.directions @ Rt, fan.d_directions @ Rt
+        altitude, fan, dirs, d_dirs, hits = self._cast_ping(data, p_port, R)
         gain, rows, nbrs = fan.gain, fan.rows, fan.neighbours
         n_side = dirs.shape[0] // 2
         if m.site_ids[0] == m.site_ids[1]:
@@ -296,14 +301,19 @@ class SideScanSonar:
                 m.seabed,
                 m.object_specular,
                 m.object_gain,
+                ping_layout=True,
             )
-            mean, labels, pos = echo.mean, echo.labels, echo.hit_position
+            mean, labels, pos = echo.mean, echo.labels, echo.hit_position  # pos: ping layout
             mean = self._add_corners(mean, hits, p_port, dirs, gain, rows)
         else:
             out = []
             for k, p in enumerate((p_port, p_stbd)):
                 sl = slice(k * n_side, (k + 1) * n_side)
-                h = m.backend.cast(data, p, dirs[sl], m.cutoff, fan.side_cones[k].rotated(R))
+                h = (
+                    hits  # the port side's, cast with the probe
+                    if k == 0
+                    else m.backend.cast(data, p, dirs[sl], m.cutoff, fan.side_cones[k].rotated(R))
+                )
                 out.append(
                     form_echo(
                         h,
@@ -336,16 +346,17 @@ class SideScanSonar:
                 )
             mean = np.concatenate([e.mean for e in out])
             labels = np.concatenate([e.labels for e in out])
-            pos = np.concatenate([e.hit_position for e in out])
+            pos = np.concatenate([out[0].hit_position[0, ::-1], out[1].hit_position[0]])
         if self.chain is not None:
             inten = self.chain.finish(mean, altitude, 0.5 * (p_port + p_stbd), rng)
+            inten = np.concatenate([inten[0, ::-1], inten[1]])
         else:
-            inten = finish_samples(mean, self.ranges, m.alpha_db_m, c.acoustic, rng, self._tvg)
+            inten = ping_samples(mean, c.acoustic, rng, self._tvg, self._noise)
         return SSSPing(
-            intensity=np.concatenate([inten[0, ::-1], inten[1]]),
+            intensity=inten,
             slant_range=self.slant_range,
             labels=np.concatenate([labels[0, ::-1], labels[1]]),
-            hit_position=np.concatenate([pos[0, ::-1], pos[1]]),
+            hit_position=pos,
             sensor_position=np.stack([p_port, p_stbd]),
             sensor_rotation=R,
             time=float(data.time),

@@ -69,7 +69,8 @@ def test_form_echo_same_bytes_as_the_array_version():
     labels and hit positions, byte for byte, as the array version they replaced — also
     with the realistic preset's sediment seabed, facet glint and object gain, and
     without neighbour links; the FLS layout (``bins_first``) is the transpose of the
-    same positions."""
+    same positions, the side-scan ping's (``ping_layout``) their rows joined, row 0
+    reversed."""
     import sys
     from pathlib import Path
 
@@ -158,6 +159,10 @@ def test_form_echo_same_bytes_as_the_array_version():
         assert new.hit_position.tobytes() == old.hit_position.tobytes()
         t = form_echo(*case, bins_first=True).hit_position
         assert t.tobytes() == np.ascontiguousarray(old.hit_position.transpose(1, 0, 2)).tobytes()
+        if case[6] == 2:  # the side-scan ping's layout: row 0 reversed, then row 1
+            p = form_echo(*case, ping_layout=True).hit_position
+            ref = np.concatenate([old.hit_position[0, ::-1], old.hit_position[1]])
+            assert p.tobytes() == ref.tobytes()
 
 
 @settings(max_examples=25, deadline=None)
@@ -165,7 +170,7 @@ def test_form_echo_same_bytes_as_the_array_version():
 def test_form_echo_same_bytes_on_synthetic_fans(seed, kind):
     """Second implementation (legacy_echo): random two-row fans whose hits are a mix of
     seabed, objects, unlabelled geoms and misses — or only objects (no background
-    footprint centre anywhere), or only misses — give the same bytes, in both layouts."""
+    footprint centre anywhere), or only misses — give the same bytes, in all layouts."""
     import sys
     from pathlib import Path
 
@@ -200,3 +205,6 @@ def test_form_echo_same_bytes_on_synthetic_fans(seed, kind):
     assert new.hit_position.tobytes() == old.hit_position.tobytes()
     t = form_echo(*case, bins_first=True).hit_position
     assert t.tobytes() == np.ascontiguousarray(old.hit_position.transpose(1, 0, 2)).tobytes()
+    p = form_echo(*case, ping_layout=True).hit_position
+    ref = np.concatenate([old.hit_position[0, ::-1], old.hit_position[1]])
+    assert p.tobytes() == ref.tobytes()

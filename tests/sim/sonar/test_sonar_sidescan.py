@@ -460,18 +460,27 @@ def test_presets_overridable_including_acoustic_fields():
         preset("msis", source_level_db=500.0)
 
 
-def test_probe_batched_with_the_cached_fan_gives_the_same_pings():
-    """The nadir probe is cast in one batch with the previous ping's fan; a sonar whose fan
-    cache is cleared before every ping probes first and casts after (the unbatched path).
-    Both give the same bytes over a track that crosses a moving box and changes altitude
-    (fan rebuilt)."""
+@pytest.mark.parametrize("two_sites", [False, True])
+def test_probe_batched_with_the_cached_fan_gives_the_same_pings(two_sites):
+    """The nadir probe is cast in one batch with the previous ping's fan (with a two-site
+    sonar: with its port side, cast from the same site); a sonar whose fan cache is
+    cleared before every ping probes first and casts after (the unbatched path). Both
+    give the same bytes over a track that crosses a moving box and changes altitude (fan
+    rebuilt)."""
     sc = build_scene(
         altitude=8.0,
         objects=[SceneObject("box", (0.0, 9.0, 0.8), (0.5, 0.8, 0.8), moving=True)],
         seabed_cells=40,
         relief=0.8,
     )
-    a, b = _sonar(sc), _sonar(sc)
+    if two_sites:
+        sites = (sc.sites["sss_port"], sc.sites["sss_starboard"])
+        a, b = (
+            SideScanSonar(preset("deepeye680d"), sc.model, sc.data, sites, *_scene_args(sc))
+            for _ in "ab"
+        )
+    else:
+        a, b = _sonar(sc), _sonar(sc)
     ra, rb = np.random.default_rng(5), np.random.default_rng(5)
     z0 = float(sc.data.qpos[sc.qpos_adr(sc.vehicle_body) + 2])
     seen, alts = False, set()
