@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.optimize import minimize
 
-from .artefacts import mask_annotations, no_echo_mask
+from .artefacts import invert_saturated, mask_annotations, no_echo_mask
 from .detection_filters import region_contrast_db, shadow_fraction
 from .fragments import merge_fragments
 from .image import as_gray8
@@ -214,6 +214,10 @@ class DetectorConfig:
     reflect_px       : run Algorithm 2 on the binary image extended by this many pixels
                        of reflection across the tile edges (0 = off): a cut object keeps
                        its parts smaller than ``a`` and its holes open to the edge fill.
+    invert_saturated : seabed level (median non-zero grey level, 0–255) at or above
+                       which the image is display-saturated and the chain runs on it
+                       inverted (:func:`.artefacts.invert_saturated`; no-echo areas
+                       still from the image itself); ``inf`` = off.
     """
 
     method: str = "improved-otsu"
@@ -227,6 +231,7 @@ class DetectorConfig:
     max_count: int = 2
     frame_padding: bool = False
     reflect_px: int = 0
+    invert_saturated: float = math.inf
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -241,6 +246,11 @@ class DetectorConfig:
             raise ValueError("DetectorConfig.min_contrast_db=nan: need a number (dB) or -inf")
         if int(self.max_count) != self.max_count or self.max_count < 0:
             raise ValueError(f"DetectorConfig.max_count={self.max_count!r}: must be >= 0")
+        if math.isnan(self.invert_saturated) or self.invert_saturated < 0:
+            raise ValueError(
+                f"DetectorConfig.invert_saturated={self.invert_saturated!r}: need a grey "
+                "level >= 0 or inf"
+            )
         if int(self.reflect_px) != self.reflect_px or self.reflect_px < 0:
             raise ValueError(
                 f"DetectorConfig.reflect_px={self.reflect_px!r}: must be an integer >= 0 (pixels)"
@@ -279,7 +289,8 @@ class Candidates:
     ``frame_padding``, else the whole image).
 
     first_stage : the first stage's :class:`.methods.SegmentationResult` on ``gray8``.
-    gray8       : (h, w) the image the chain ran on (annotations masked).
+    gray8       : (h, w) the image the chain ran on (annotations masked; inverted when
+                  display-saturated, ``invert_saturated``).
     labels      : (h, w) int32 labels of the merged, not suppressed regions.
     regions     : those regions.
     offset_rc   : (row, col) of ``gray8``'s top-left pixel in the whole image.
@@ -306,6 +317,9 @@ def candidate_regions(image: np.ndarray, config: DetectorConfig | str) -> Candid
         data_frame(g) if cfg.frame_padding else (slice(0, g.shape[0]), slice(0, g.shape[1]))
     )
     gc = np.ascontiguousarray(g[rows, cols]) if g[rows, cols].shape != g.shape else g
+    data = gc
+    if cfg.invert_saturated < math.inf:
+        gc, _ = invert_saturated(gc, cfg.invert_saturated)
     res = segment(gc, cfg.method, get_preset(cfg.preset, gc.shape))
     labels, regions = res.labels, res.regions
     if cfg.reflect_px and res.binary.any():  # a cut part < a px leaves no region
@@ -316,7 +330,7 @@ def candidate_regions(image: np.ndarray, config: DetectorConfig | str) -> Candid
         res = replace(res, mask=labels > 0)
     relabel = False
     if cfg.suppress_no_echo and regions:
-        ne = no_echo_mask(gc)
+        ne = no_echo_mask(data)
         if ne.any():
             bad = np.zeros(int(labels.max()) + 1, bool)
             bad[np.unique(labels[ne])] = True
