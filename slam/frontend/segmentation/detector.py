@@ -5,7 +5,8 @@ Stages of :func:`detect` (each switchable in :class:`DetectorConfig`):
 
 1. burned-in annotations masked (:func:`.artefacts.mask_annotations`); optionally the
    tile reduced to its data frame (``frame_padding``: zero padding at its edges is
-   outside the image, :func:`.tile_edges.data_frame`);
+   outside the image, :func:`.tile_edges.data_frame`) and a display-saturated tile
+   inverted (``invert_saturated``, :func:`.artefacts.invert_saturated`);
 2. first stage: a threshold method (improved Otsu by default) and Algorithm 2
    (optionally on the binary image reflected across the tile edges, ``reflect_px``:
    :func:`.tile_edges.algorithm2_reflected`);
@@ -19,8 +20,9 @@ Stages of :func:`detect` (each switchable in :class:`DetectorConfig`):
 Presets (:data:`DETECTORS`): ``"thesis"`` is the reference's method unchanged (improved
 Otsu + Algorithm 2, every region a landmark); ``"sdvd-trusted"`` is the full chain with
 the second stage trained on the tune half of the SDVD tiles
-(``scripts/train_sdvd_stage2.py``); ``"sdvd-rules"`` the same chain with the contrast
-test instead of the classifier. Their parameters were chosen on the tune half only
+(``scripts/train_sdvd_stage2.py``); ``"sdvd-saturated"`` the same with display-saturated
+tiles (seabed level >= 170) run inverted; ``"sdvd-rules"`` the same chain with the
+contrast test instead of the classifier. Their parameters were chosen on the tune half only
 (``docs/detections.md``).
 """
 
@@ -389,6 +391,7 @@ DETECTORS: dict[str, DetectorConfig] = {
         max_count=0,
     ),
     "sdvd-trusted": DetectorConfig(),
+    "sdvd-saturated": DetectorConfig(invert_saturated=170.0),
     "sdvd-rules": DetectorConfig(classifier=None, min_contrast_db=2.0, max_count=1),
 }
 
