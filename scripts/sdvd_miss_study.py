@@ -4,7 +4,7 @@ the detection chain at which no region with its centroid inside the effigy mask 
 Stages, in the chain's order (``slam.frontend.segmentation.detector``):
 
 * ``threshold``: improved Otsu + Algorithm 2 (annotations masked) leaves no region whose
-  centroid is in the mask;
+  centroid is in the mask, and neither does fragment merging;
 * ``no-echo``: one did, but it was dropped as touching a no-echo area;
 * ``merge``: after fragment merging (the chain's gap) no merged region's centroid is in
   the mask (the effigy's fragments were joined to others);
@@ -61,14 +61,12 @@ def lost_at(tile, cfg) -> dict:
     in-mask region's probability and rank when it reached the second stage."""
     raw = cfg.with_(suppress_no_echo=False, merge_gap_px=0)
     info = {"p": None, "rank": None, "n_cand": None}
-    ok, _ = _any_inside(raw, tile)
-    if not ok:
-        return {"stage": "threshold", **info}
-    ok, _ = _any_inside(cfg.with_(merge_gap_px=0), tile)
-    if not ok:
-        return {"stage": "no-echo", **info}
     ok, c = _any_inside(cfg, tile)
-    if not ok:
+    if not ok:  # merging can also centre a group of fragments on the effigy
+        if not _any_inside(raw, tile)[0]:
+            return {"stage": "threshold", **info}
+        if not _any_inside(cfg.with_(merge_gap_px=0), tile)[0]:
+            return {"stage": "no-echo", **info}
         return {"stage": "merge", **info}
     regs = tuple(r for r in c.regions if r.area_px <= cfg.max_area_px)
     inside = inside_flags(tile.mask, regs, c.offset_rc)
