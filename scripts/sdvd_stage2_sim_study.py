@@ -42,6 +42,7 @@ from train_sdvd_stage2 import (  # noqa: E402
     candidates_with_features,
     first_stage_ceiling,
     inside_flags,
+    rule_key,
     score,
     tune_regions,
 )
@@ -143,9 +144,8 @@ def choose_variant(rows, x_fit, y_fit, gap):
             s = score(rows, clf, k)
             entry = {"merge_gap_px": gap, "threshold": tau, "max_count": k, **s}
             grid.append(entry)
-            ok = s["ppv"] >= 0.5 and s["detections_per_negative_tile"] <= 0.7
-            key = (s["hit_rate"], -s["detections_per_negative_tile"], s["ppv"])
-            if ok and (best is None or key > best[0]):
+            key = rule_key(s)
+            if key is not None and (best is None or key > best[0]):
                 best = (key, entry)
     return (None if best is None else best[1]), grid
 
@@ -175,11 +175,7 @@ def main(argv=None) -> int:
         for name, (x, y) in fits.items():
             best, _grid = choose_variant(rows, x, y, gap)
             prev = out["variants"].get(name)
-            if best is not None and (
-                prev is None
-                or (best["hit_rate"], -best["detections_per_negative_tile"], best["ppv"])
-                > (prev["hit_rate"], -prev["detections_per_negative_tile"], prev["ppv"])
-            ):
+            if best is not None and (prev is None or rule_key(best) > rule_key(prev)):
                 out["variants"][name] = {**best, "ceiling": first_stage_ceiling(rows)}
             out["variants"].setdefault(name, None)
     if args.json:

@@ -107,6 +107,15 @@ def first_stage_ceiling(rows) -> float:
     return sum(pos) / max(len(pos), 1)
 
 
+def rule_key(s: dict):
+    """The selection rule (module docstring) as a sort key of a scored setting ``s``
+    (higher is better), or None when it misses PPV >= 0.5 or <= 0.7 false detections
+    per negative tile."""
+    if s["ppv"] < 0.5 or s["detections_per_negative_tile"] > 0.7:
+        return None
+    return (s["hit_rate"], -s["detections_per_negative_tile"], s["ppv"])
+
+
 def choose(tiles, base: DetectorConfig | None = None, features=None, gaps=GAPS):
     """The grid on the tune ``tiles`` and the rule (module docstring): ``(grid, best)``,
     ``best = (entry, classifier)`` or None when no setting meets the limits."""
@@ -124,9 +133,8 @@ def choose(tiles, base: DetectorConfig | None = None, features=None, gaps=GAPS):
                 entry = {"merge_gap_px": gap, "threshold": tau, "max_count": k, **s}
                 entry["first_stage_ceiling"] = first_stage_ceiling(rows)
                 grid.append(entry)
-                ok = s["ppv"] >= 0.5 and s["detections_per_negative_tile"] <= 0.7
-                key = (s["hit_rate"], -s["detections_per_negative_tile"], s["ppv"])
-                if ok and (best is None or key > best[0]):
+                key = rule_key(s)
+                if key is not None and (best is None or key > best[0]):
                     best = (key, entry, clf)
     return grid, None if best is None else best[1:]
 
