@@ -42,12 +42,13 @@ from .image import as_gray8
 from .methods import METHODS, SegmentationResult, segment
 from .presets import get_preset
 from .regions import Region
-from .tile_edges import algorithm2_reflected, data_frame, shift_regions
+from .tile_edges import algorithm2_reflected, data_frame, seabed_histogram_mask, shift_regions
 
 __all__ = [
     "DETECTORS",
     "FEATURES",
     "SDVD_STAGE2",
+    "THRESHOLD_PIXELS",
     "Candidates",
     "DetectorConfig",
     "RegionClassifier",
@@ -195,6 +196,18 @@ SDVD_STAGE2 = RegionClassifier(
 )
 
 
+#: allowed values of :attr:`DetectorConfig.threshold_pixels`
+THRESHOLD_PIXELS: tuple[str, ...] = ("all", "echo", "seabed", "ping-bands", "echo+ping-bands")
+
+
+_HIST_MASK = {
+    "echo": {"strips": "none"},
+    "seabed": {"strips": "both"},
+    "ping-bands": {"strips": "rows", "drop_no_echo": False},
+    "echo+ping-bands": {"strips": "rows"},
+}
+
+
 @dataclass(frozen=True)
 class DetectorConfig:
     """The detection chain of :func:`detect` (module docstring).
@@ -220,6 +233,12 @@ class DetectorConfig:
                        which the image is display-saturated and the chain runs on it
                        inverted (:func:`.artefacts.invert_saturated`; no-echo areas
                        still from the image itself); ``inf`` = off.
+    threshold_pixels : the pixels the first stage's threshold is computed from (it is
+                       applied to every pixel): ``"all"`` (the thesis), ``"echo"`` (no-echo
+                       areas excluded), ``"seabed"`` (no-echo areas and bright strips
+                       along the tile edges excluded), ``"ping-bands"`` (bright bands of
+                       pings, rows, at the tile's top or bottom excluded),
+                       ``"echo+ping-bands"`` (both); :func:`.tile_edges.seabed_histogram_mask`.
     """
 
     method: str = "improved-otsu"
@@ -234,6 +253,7 @@ class DetectorConfig:
     frame_padding: bool = False
     reflect_px: int = 0
     invert_saturated: float = math.inf
+    threshold_pixels: str = "all"
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -252,6 +272,11 @@ class DetectorConfig:
             raise ValueError(
                 f"DetectorConfig.invert_saturated={self.invert_saturated!r}: need a grey "
                 "level >= 0 or inf"
+            )
+        if self.threshold_pixels not in THRESHOLD_PIXELS:
+            raise ValueError(
+                f"DetectorConfig.threshold_pixels={self.threshold_pixels!r}: allowed "
+                f"{', '.join(THRESHOLD_PIXELS)}"
             )
         if int(self.reflect_px) != self.reflect_px or self.reflect_px < 0:
             raise ValueError(
@@ -322,7 +347,11 @@ def candidate_regions(image: np.ndarray, config: DetectorConfig | str) -> Candid
     data = gc
     if cfg.invert_saturated < math.inf:
         gc, _ = invert_saturated(gc, cfg.invert_saturated)
-    res = segment(gc, cfg.method, get_preset(cfg.preset, gc.shape))
+    ne = hist_mask = None
+    if cfg.threshold_pixels != "all":
+        ne = no_echo_mask(data)
+        hist_mask = seabed_histogram_mask(gc, ne, **_HIST_MASK[cfg.threshold_pixels])
+    res = segment(gc, cfg.method, get_preset(cfg.preset, gc.shape), hist_mask=hist_mask)
     labels, regions = res.labels, res.regions
     if cfg.reflect_px and res.binary.any():  # a cut part < a px leaves no region
         p = res.params
@@ -332,7 +361,7 @@ def candidate_regions(image: np.ndarray, config: DetectorConfig | str) -> Candid
         res = replace(res, mask=labels > 0)
     relabel = False
     if cfg.suppress_no_echo and regions:
-        ne = no_echo_mask(data)
+        ne = no_echo_mask(data) if ne is None else ne
         if ne.any():
             bad = np.zeros(int(labels.max()) + 1, bool)
             bad[np.unique(labels[ne])] = True
