@@ -420,7 +420,7 @@ DETECTORS: dict[str, DetectorConfig] = {
         max_count=0,
     ),
     "sdvd-trusted": DetectorConfig(),
-    "sdvd-saturated": DetectorConfig(invert_saturated=170.0),
+    "sdvd-saturated": DetectorConfig(invert_saturated=170.0, threshold_pixels="ping-bands"),
     "sdvd-rules": DetectorConfig(classifier=None, min_contrast_db=2.0, max_count=1),
 }
 
