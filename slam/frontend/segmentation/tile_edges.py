@@ -117,6 +117,16 @@ def _edge_run(flags: np.ndarray, limit: int) -> tuple[int, int]:
     return (head if head <= limit else 0), (tail if tail <= limit else 0)
 
 
+def _medians_above(g: np.ndarray, valid: np.ndarray, axis: int, level: float) -> np.ndarray:
+    """Per row (``axis=1``) or column (``axis=0``): median of the valid pixels > level."""
+    if valid.all():
+        return np.median(g, axis=axis) > level
+    x = np.where(valid, g.astype(np.float32), np.nan)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN lines: not bright
+        return np.nanmedian(x, axis=axis) > level
+
+
 def bright_edge_strips(
     gray8: np.ndarray, valid: np.ndarray, level: float, columns: bool = True
 ) -> np.ndarray:
@@ -131,14 +141,9 @@ def bright_edge_strips(
     if v.shape != g.shape:
         raise ValueError(f"valid: shape {v.shape}, need the image's {g.shape}")
     h, w = g.shape
-    x = np.where(v, g.astype(np.float32), np.nan)
     out = np.zeros((h, w), bool)
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: not bright
-        rows = np.nanmedian(x, axis=1) > level
-        cols = np.nanmedian(x, axis=0) > level
-    top, bottom = _edge_run(rows, h // 2)
-    left, right = _edge_run(cols, w // 2) if columns else (0, 0)
+    top, bottom = _edge_run(_medians_above(g, v, 1, level), h // 2)
+    left, right = _edge_run(_medians_above(g, v, 0, level), w // 2) if columns else (0, 0)
     out[:top] = True
     out[h - bottom :] = True
     out[:, :left] = True
