@@ -7,7 +7,8 @@ Stages of :func:`detect` (each switchable in :class:`DetectorConfig`):
    tile reduced to its data frame (``frame_padding``: zero padding at its edges is
    outside the image, :func:`.tile_edges.data_frame`) and a display-saturated tile
    inverted (``invert_saturated``, :func:`.artefacts.invert_saturated`);
-2. first stage: a threshold method (improved Otsu by default) and Algorithm 2
+2. first stage: a threshold method (improved Otsu by default; its threshold optionally
+   from part of the tile, ``threshold_pixels``) and Algorithm 2
    (optionally on the binary image reflected across the tile edges, ``reflect_px``:
    :func:`.tile_edges.algorithm2_reflected`);
 3. regions touching a no-echo area dropped (:func:`.artefacts.no_echo_mask`);
@@ -21,7 +22,9 @@ Presets (:data:`DETECTORS`): ``"thesis"`` is the reference's method unchanged (i
 Otsu + Algorithm 2, every region a landmark); ``"sdvd-trusted"`` is the full chain with
 the second stage trained on the tune half of the SDVD tiles
 (``scripts/train_sdvd_stage2.py``); ``"sdvd-saturated"`` the same with display-saturated
-tiles (seabed level >= 170) run inverted; ``"sdvd-rules"`` the same chain with the
+tiles (seabed level >= 170) run inverted and the threshold computed without bright
+bands of pings at the tile's top or bottom (``threshold_pixels="ping-bands"``);
+``"sdvd-rules"`` the same chain with the
 contrast test instead of the classifier. Their parameters were chosen on the tune half only
 (``docs/detections.md``).
 """
