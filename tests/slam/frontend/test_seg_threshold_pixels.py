@@ -96,3 +96,24 @@ def test_seabed_threshold_finds_a_dim_object_under_a_bright_strip(rng):
     assert len(on_object(detect(img, cfg.with_(threshold_pixels="seabed")))) == 1
     with pytest.raises(ValueError, match="threshold_pixels"):
         DetectorConfig(threshold_pixels="strips")
+
+
+def test_ping_band_tile_gets_a_region_on_its_effigy(shared_data):
+    """A real tune tile (034600H s3 t1) whose top rows are a band of pings brighter over
+    the whole swath: from every pixel the threshold leaves no candidate on the labelled
+    effigy; without the band a candidate's centroid is inside its mask."""
+    from script_module import load_script
+
+    from slam.frontend.segmentation.detector import candidate_regions, get_detector
+    from slam.frontend.segmentation.evaluation import load_sdvd
+
+    inside_flags = load_script("train_sdvd_stage2").inside_flags
+    name = "left_20240430034600H_sample_3_tile_1.png"
+    (tile,) = [t for t in load_sdvd(shared_data / "sdvd") if t.name == name]
+    cfg = get_detector("sdvd-saturated")
+
+    def on_effigy(c):
+        return int(inside_flags(tile.mask, c.regions, c.offset_rc).sum())
+
+    assert on_effigy(candidate_regions(tile.image, cfg.with_(threshold_pixels="all"))) == 0
+    assert on_effigy(candidate_regions(tile.image, cfg)) >= 1
