@@ -11,7 +11,7 @@ per effigy) >= 0.5 and false detections per negative tile <= 0.7; ties go to few
 detections per negative tile, then to higher PPV. Prints the grid and the chosen
 ``RegionClassifier`` literal to paste into ``slam/frontend/segmentation/detector.py``.
 
-    python scripts/train_sdvd_stage2.py [--data DIR] [--json]
+    python scripts/train_sdvd_stage2.py [--data DIR] [--gaps 0,4] [--invert-saturated LEVEL] [--json]
 """
 
 from __future__ import annotations
@@ -107,12 +107,21 @@ def first_stage_ceiling(rows) -> float:
     return sum(pos) / max(len(pos), 1)
 
 
-def choose(tiles, base: DetectorConfig | None = None, features=None):
+def rule_key(s: dict):
+    """The selection rule (module docstring) as a sort key of a scored setting ``s``
+    (higher is better), or None when it misses PPV >= 0.5 or <= 0.7 false detections
+    per negative tile."""
+    if s["ppv"] < 0.5 or s["detections_per_negative_tile"] > 0.7:
+        return None
+    return (s["hit_rate"], -s["detections_per_negative_tile"], s["ppv"])
+
+
+def choose(tiles, base: DetectorConfig | None = None, features=None, gaps=GAPS):
     """The grid on the tune ``tiles`` and the rule (module docstring): ``(grid, best)``,
     ``best = (entry, classifier)`` or None when no setting meets the limits."""
     grid = []
     best = None
-    for gap in GAPS:
+    for gap in gaps:
         rows = tune_regions(tiles, gap, base, features)
         x = np.vstack([f for _, f, _ in rows if len(f)])
         y = np.concatenate([i for _, f, i in rows if len(f)])
@@ -124,9 +133,8 @@ def choose(tiles, base: DetectorConfig | None = None, features=None):
                 entry = {"merge_gap_px": gap, "threshold": tau, "max_count": k, **s}
                 entry["first_stage_ceiling"] = first_stage_ceiling(rows)
                 grid.append(entry)
-                ok = s["ppv"] >= 0.5 and s["detections_per_negative_tile"] <= 0.7
-                key = (s["hit_rate"], -s["detections_per_negative_tile"], s["ppv"])
-                if ok and (best is None or key > best[0]):
+                key = rule_key(s)
+                if key is not None and (best is None or key > best[0]):
                     best = (key, entry, clf)
     return grid, None if best is None else best[1:]
 
@@ -134,14 +142,28 @@ def choose(tiles, base: DetectorConfig | None = None, features=None):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", default=str(default_sdvd_dir()), help="SDVD folder")
+    ap.add_argument("--gaps", default=",".join(map(str, GAPS)), help="merge gaps of the grid (px)")
+    ap.add_argument(
+        "--invert-saturated",
+        type=float,
+        default=None,
+        help="stages 1-4 with DetectorConfig.invert_saturated at this seabed level",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    try:
+        gaps = tuple(int(g) for g in args.gaps.split(",") if g)
+    except ValueError:
+        ap.error(f"--gaps: {args.gaps!r} is not a comma-separated list of integers")
+    base = get_detector("sdvd-trusted")
+    if args.invert_saturated is not None:
+        base = base.with_(invert_saturated=args.invert_saturated)
     data = Path(args.data)
     if not data.is_dir():
         print(f"train_sdvd_stage2: {str(data)!r} not found", file=sys.stderr)
         return 2
     tiles = [t for t in load_sdvd(data) if t.split == "tune"]
-    grid, best = choose(tiles)
+    grid, best = choose(tiles, base, gaps=gaps)
     out = {"n_tune_tiles": len(tiles), "grid": grid}
     if best is not None:
         entry, clf = best

@@ -27,12 +27,17 @@ first-bottom-return edge of a side-scan waterfall.
   (:func:`mirrored_across_nadir`) is that rim too. The pipeline drops detections whose
   centroid falls inside the edge or that are mirrored (:func:`drop_first_return_edge`;
   the Scotsman XTF's symmetric "landmark" at ping 442 is this rim).
+* **Display saturation** (:func:`invert_saturated`). A gain-processed display image whose
+  seabed level (median non-zero grey level) is near white cannot show a highlight above
+  the seabed: an object there appears by its darker parts and its shadow. Inverting the
+  data (255 − g on non-zero pixels, zero padding kept at 0) makes those the bright ones.
 
 All masks are ``(H, W)`` bool arrays in image pixels.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import cv2
@@ -50,6 +55,7 @@ __all__ = [
     "first_return_edge_from_altitude",
     "first_return_edge_mask",
     "first_return_samples",
+    "invert_saturated",
     "mask_annotations",
     "mirrored_across_nadir",
     "no_echo_mask",
@@ -152,6 +158,19 @@ def no_echo_mask(
         size = 2 * int(margin_px) + 1
         m = cv2.dilate(m, np.ones((size, size), np.uint8))
     return m.view(bool)
+
+
+def invert_saturated(gray8: np.ndarray, level: float) -> tuple[np.ndarray, bool]:
+    """``(image, inverted)``: ``gray8`` with its non-zero pixels inverted (255 − g) when
+    its seabed level (median non-zero grey level) is >= ``level`` (grey levels 0–255;
+    ``inf`` = never), else ``gray8`` itself (module docstring)."""
+    if math.isnan(level):
+        raise ValueError("invert_saturated: level=nan; need a grey level (0-255) or inf")
+    g = as_gray8(gray8)
+    nz = g[g > 0]
+    if nz.size == 0 or float(np.median(nz)) < level:
+        return g, False
+    return np.where(g > 0, 255 - g, 0).astype(np.uint8), True
 
 
 def regions_outside(

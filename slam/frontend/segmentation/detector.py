@@ -5,8 +5,10 @@ Stages of :func:`detect` (each switchable in :class:`DetectorConfig`):
 
 1. burned-in annotations masked (:func:`.artefacts.mask_annotations`); optionally the
    tile reduced to its data frame (``frame_padding``: zero padding at its edges is
-   outside the image, :func:`.tile_edges.data_frame`);
-2. first stage: a threshold method (improved Otsu by default) and Algorithm 2
+   outside the image, :func:`.tile_edges.data_frame`) and a display-saturated tile
+   inverted (``invert_saturated``, :func:`.artefacts.invert_saturated`);
+2. first stage: a threshold method (improved Otsu by default; its threshold optionally
+   from part of the tile, ``threshold_pixels``) and Algorithm 2
    (optionally on the binary image reflected across the tile edges, ``reflect_px``:
    :func:`.tile_edges.algorithm2_reflected`);
 3. regions touching a no-echo area dropped (:func:`.artefacts.no_echo_mask`);
@@ -19,8 +21,11 @@ Stages of :func:`detect` (each switchable in :class:`DetectorConfig`):
 Presets (:data:`DETECTORS`): ``"thesis"`` is the reference's method unchanged (improved
 Otsu + Algorithm 2, every region a landmark); ``"sdvd-trusted"`` is the full chain with
 the second stage trained on the tune half of the SDVD tiles
-(``scripts/train_sdvd_stage2.py``); ``"sdvd-rules"`` the same chain with the contrast
-test instead of the classifier. Their parameters were chosen on the tune half only
+(``scripts/train_sdvd_stage2.py``); ``"sdvd-saturated"`` the same with display-saturated
+tiles (seabed level >= 170) run inverted and the threshold computed without bright
+bands of pings at the tile's top or bottom (``threshold_pixels="ping-bands"``);
+``"sdvd-rules"`` the same chain with the
+contrast test instead of the classifier. Their parameters were chosen on the tune half only
 (``docs/detections.md``).
 """
 
@@ -33,19 +38,20 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.optimize import minimize
 
-from .artefacts import mask_annotations, no_echo_mask
+from .artefacts import invert_saturated, mask_annotations, no_echo_mask
 from .detection_filters import region_contrast_db, shadow_fraction
 from .fragments import merge_fragments
 from .image import as_gray8
 from .methods import METHODS, SegmentationResult, segment
 from .presets import get_preset
 from .regions import Region
-from .tile_edges import algorithm2_reflected, data_frame, shift_regions
+from .tile_edges import algorithm2_reflected, data_frame, seabed_histogram_mask, shift_regions
 
 __all__ = [
     "DETECTORS",
     "FEATURES",
     "SDVD_STAGE2",
+    "THRESHOLD_PIXELS",
     "Candidates",
     "DetectorConfig",
     "RegionClassifier",
@@ -193,6 +199,18 @@ SDVD_STAGE2 = RegionClassifier(
 )
 
 
+#: allowed values of :attr:`DetectorConfig.threshold_pixels`
+THRESHOLD_PIXELS: tuple[str, ...] = ("all", "echo", "seabed", "ping-bands", "echo+ping-bands")
+
+
+_HIST_MASK = {
+    "echo": {"strips": "none"},
+    "seabed": {"strips": "both"},
+    "ping-bands": {"strips": "rows", "drop_no_echo": False},
+    "echo+ping-bands": {"strips": "rows"},
+}
+
+
 @dataclass(frozen=True)
 class DetectorConfig:
     """The detection chain of :func:`detect` (module docstring).
@@ -214,6 +232,16 @@ class DetectorConfig:
     reflect_px       : run Algorithm 2 on the binary image extended by this many pixels
                        of reflection across the tile edges (0 = off): a cut object keeps
                        its parts smaller than ``a`` and its holes open to the edge fill.
+    invert_saturated : seabed level (median non-zero grey level, 0–255) at or above
+                       which the image is display-saturated and the chain runs on it
+                       inverted (:func:`.artefacts.invert_saturated`; no-echo areas
+                       still from the image itself); ``inf`` = off.
+    threshold_pixels : the pixels the first stage's threshold is computed from (it is
+                       applied to every pixel): ``"all"`` (the thesis), ``"echo"`` (no-echo
+                       areas excluded), ``"seabed"`` (no-echo areas and bright strips
+                       along the tile edges excluded), ``"ping-bands"`` (bright bands of
+                       pings, rows, at the tile's top or bottom excluded),
+                       ``"echo+ping-bands"`` (both); :func:`.tile_edges.seabed_histogram_mask`.
     """
 
     method: str = "improved-otsu"
@@ -227,6 +255,8 @@ class DetectorConfig:
     max_count: int = 2
     frame_padding: bool = False
     reflect_px: int = 0
+    invert_saturated: float = math.inf
+    threshold_pixels: str = "all"
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -241,6 +271,16 @@ class DetectorConfig:
             raise ValueError("DetectorConfig.min_contrast_db=nan: need a number (dB) or -inf")
         if int(self.max_count) != self.max_count or self.max_count < 0:
             raise ValueError(f"DetectorConfig.max_count={self.max_count!r}: must be >= 0")
+        if math.isnan(self.invert_saturated) or self.invert_saturated < 0:
+            raise ValueError(
+                f"DetectorConfig.invert_saturated={self.invert_saturated!r}: need a grey "
+                "level >= 0 or inf"
+            )
+        if self.threshold_pixels not in THRESHOLD_PIXELS:
+            raise ValueError(
+                f"DetectorConfig.threshold_pixels={self.threshold_pixels!r}: allowed "
+                f"{', '.join(THRESHOLD_PIXELS)}"
+            )
         if int(self.reflect_px) != self.reflect_px or self.reflect_px < 0:
             raise ValueError(
                 f"DetectorConfig.reflect_px={self.reflect_px!r}: must be an integer >= 0 (pixels)"
@@ -279,7 +319,8 @@ class Candidates:
     ``frame_padding``, else the whole image).
 
     first_stage : the first stage's :class:`.methods.SegmentationResult` on ``gray8``.
-    gray8       : (h, w) the image the chain ran on (annotations masked).
+    gray8       : (h, w) the image the chain ran on (annotations masked; inverted when
+                  display-saturated, ``invert_saturated``).
     labels      : (h, w) int32 labels of the merged, not suppressed regions.
     regions     : those regions.
     offset_rc   : (row, col) of ``gray8``'s top-left pixel in the whole image.
@@ -306,7 +347,14 @@ def candidate_regions(image: np.ndarray, config: DetectorConfig | str) -> Candid
         data_frame(g) if cfg.frame_padding else (slice(0, g.shape[0]), slice(0, g.shape[1]))
     )
     gc = np.ascontiguousarray(g[rows, cols]) if g[rows, cols].shape != g.shape else g
-    res = segment(gc, cfg.method, get_preset(cfg.preset, gc.shape))
+    data = gc
+    if cfg.invert_saturated < math.inf:
+        gc, _ = invert_saturated(gc, cfg.invert_saturated)
+    ne = hist_mask = None
+    if cfg.threshold_pixels != "all":
+        ne = no_echo_mask(data)
+        hist_mask = seabed_histogram_mask(gc, ne, **_HIST_MASK[cfg.threshold_pixels])
+    res = segment(gc, cfg.method, get_preset(cfg.preset, gc.shape), hist_mask=hist_mask)
     labels, regions = res.labels, res.regions
     if cfg.reflect_px and res.binary.any():  # a cut part < a px leaves no region
         p = res.params
@@ -316,7 +364,7 @@ def candidate_regions(image: np.ndarray, config: DetectorConfig | str) -> Candid
         res = replace(res, mask=labels > 0)
     relabel = False
     if cfg.suppress_no_echo and regions:
-        ne = no_echo_mask(gc)
+        ne = no_echo_mask(data) if ne is None else ne
         if ne.any():
             bad = np.zeros(int(labels.max()) + 1, bool)
             bad[np.unique(labels[ne])] = True
@@ -375,6 +423,7 @@ DETECTORS: dict[str, DetectorConfig] = {
         max_count=0,
     ),
     "sdvd-trusted": DetectorConfig(),
+    "sdvd-saturated": DetectorConfig(invert_saturated=170.0, threshold_pixels="ping-bands"),
     "sdvd-rules": DetectorConfig(classifier=None, min_contrast_db=2.0, max_count=1),
 }
 

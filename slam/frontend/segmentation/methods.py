@@ -288,10 +288,25 @@ def _constant_result(method, params, gray8, level: int, region_filter) -> Segmen
     )
 
 
+def _histogram(y: np.ndarray, hist_mask: np.ndarray | None) -> np.ndarray:
+    """(256,) grey-level counts of ``y``, of the pixels where ``hist_mask`` is True only
+    when it is given and selects any (else of every pixel)."""
+    if hist_mask is None:
+        return gray_histogram(y)
+    m = np.asarray(hist_mask)
+    if m.shape != y.shape:
+        raise ValueError(f"hist_mask: shape {m.shape}, need the image's {y.shape}")
+    m = m.astype(bool, copy=False)
+    if not m.any():
+        return gray_histogram(y)
+    return np.bincount(y[m], minlength=256).astype(np.float64)
+
+
 def improved_otsu(
     image: np.ndarray,
     params: SegmentationParams | str | None = "high-res-sss",
     region_filter: RegionFilter | None = None,
+    hist_mask: np.ndarray | None = None,
 ) -> SegmentationResult:
     """The reference's improved Otsu TSM followed by Algorithm 2 (module docstring).
 
@@ -302,17 +317,26 @@ def improved_otsu(
     params : :class:`SegmentationParams`, a preset name ("high-res-sss", "low-res-sss",
              "fls", "sdvd", "auto") or None (= "auto", the size rule).
     region_filter : optional landmark filter applied after Algorithm 2.
+    hist_mask : optional (H, W) bool: T and T* are computed from the histogram of these
+             pixels only (e.g. the seabed without no-echo areas and bright edge strips,
+             :func:`.tile_edges.seabed_histogram_mask`); the threshold is applied to the
+             whole image. None, or a mask selecting nothing, = every pixel (the thesis).
     """
     gray8 = as_gray8(image)
     p = _resolve_params(params, gray8.shape)
     t_start = time.perf_counter()
     y = power_law(gray8, p.power_c, p.power_r)
-    hist = gray_histogram(y)  # exact counts below 2**24 pixels (float32 in OpenCV)
+    hist = _histogram(y, hist_mask)  # exact counts below 2**24 pixels (float32 in OpenCV)
     occupied = np.flatnonzero(hist)
     lo, hi = int(occupied[0]), int(occupied[-1])
     if lo == hi:
-        return _constant_result("improved-otsu", p, gray8, lo, region_filter)
-    t = otsu_from_hist(hist) if y.size < 2**24 else otsu_threshold(y)
+        if hist_mask is None or int(y.min()) == int(y.max()):
+            return _constant_result("improved-otsu", p, gray8, lo, region_filter)
+        t = lo  # one level on the seabed: everything brighter is above it
+    elif hist_mask is not None or y.size < 2**24:
+        t = otsu_from_hist(hist)
+    else:
+        t = otsu_threshold(y)
     b = _above(y, t)
     t1 = time.perf_counter()
     dx, dy = smoothed_gradients(b, p.gaussian_sigma, p.gaussian_ksize)
@@ -347,13 +371,16 @@ def segment(
     method: str = "improved-otsu",
     params: SegmentationParams | str | None = "high-res-sss",
     region_filter: RegionFilter | None = None,
+    hist_mask: np.ndarray | None = None,
 ) -> SegmentationResult:
     """Segment ``image`` with ``method`` (one of :data:`METHODS`), then Algorithm 2 with the
-    ``a`` and dilation count of ``params`` and the optional ``region_filter``."""
+    ``a`` and dilation count of ``params`` and the optional ``region_filter``.
+    ``hist_mask`` (improved Otsu and max entropy only; others ignore it): the threshold
+    from the histogram of those pixels only (:func:`improved_otsu`)."""
     if method not in METHODS:
         raise ValueError(f"method={method!r}: unknown; allowed: {', '.join(METHODS)}")
     if method == "improved-otsu":
-        return improved_otsu(image, params, region_filter)
+        return improved_otsu(image, params, region_filter, hist_mask)
     gray8 = as_gray8(image)
     p = _resolve_params(params, gray8.shape)
     t_start = time.perf_counter()
@@ -369,7 +396,7 @@ def segment(
         t = float(threshold_isodata(gray8))
         b = gray8 > t
     elif method == "kapur":
-        t = float(kapur_threshold_hist(gray_histogram(gray8)))
+        t = float(kapur_threshold_hist(_histogram(gray8, hist_mask)))
         b = gray8 > t
     else:  # local
         b, t = _local_threshold(gray8)

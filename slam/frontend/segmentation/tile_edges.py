@@ -25,17 +25,21 @@ Coordinates: pixel (row, col), origin at the tile's top-left pixel.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 
 import cv2
 import numpy as np
 
 from .image import as_gray8
+from .otsu import otsu_threshold_hist
 from .regions import Region, extract_regions, morphology_chain
 
 __all__ = [
     "algorithm2_reflected",
+    "bright_edge_strips",
     "data_frame",
+    "seabed_histogram_mask",
     "shift_regions",
     "touches_edge",
 ]
@@ -102,3 +106,75 @@ def touches_edge(regions: tuple[Region, ...], shape: tuple[int, int]) -> np.ndar
         [r.bbox[0] == 0 or r.bbox[1] == 0 or r.bbox[2] == h or r.bbox[3] == w for r in regions],
         dtype=bool,
     )
+
+
+def _edge_run(flags: np.ndarray, limit: int) -> tuple[int, int]:
+    """Lengths of the runs of True at the start and at the end of ``flags``; a run longer
+    than ``limit`` counts as 0 (it is the tile's seabed, not a strip at its edge)."""
+    n = flags.size
+    head = n if flags.all() else int(np.argmin(flags))
+    tail = n if flags.all() else int(np.argmin(flags[::-1]))
+    return (head if head <= limit else 0), (tail if tail <= limit else 0)
+
+
+def _medians_above(g: np.ndarray, valid: np.ndarray, axis: int, level: float) -> np.ndarray:
+    """Per row (``axis=1``) or column (``axis=0``): median of the valid pixels > level."""
+    if valid.all():
+        return np.median(g, axis=axis) > level
+    x = np.where(valid, g.astype(np.float32), np.nan)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN lines: not bright
+        return np.nanmedian(x, axis=axis) > level
+
+
+def bright_edge_strips(
+    gray8: np.ndarray, valid: np.ndarray, level: float, columns: bool = True
+) -> np.ndarray:
+    """``(H, W)`` bool: bright strips along the tile edges — the runs of rows (and, with
+    ``columns``, of columns) starting at a tile edge whose median grey level over the
+    ``valid`` pixels is above ``level``, each at most half the tile. In a waterfall tile
+    (rows = pings, columns = range) a row strip is a band of pings brighter over the
+    whole swath (a gain or display step at the tile's start or end), a column strip a
+    near-range band. Rows/columns with no valid pixel are not bright."""
+    g = as_gray8(gray8)
+    v = np.asarray(valid, dtype=bool)
+    if v.shape != g.shape:
+        raise ValueError(f"valid: shape {v.shape}, need the image's {g.shape}")
+    h, w = g.shape
+    out = np.zeros((h, w), bool)
+    top, bottom = _edge_run(_medians_above(g, v, 1, level), h // 2)
+    left, right = _edge_run(_medians_above(g, v, 0, level), w // 2) if columns else (0, 0)
+    out[:top] = True
+    out[h - bottom :] = True
+    out[:, :left] = True
+    out[:, w - right :] = True
+    return out
+
+
+def seabed_histogram_mask(
+    gray8: np.ndarray,
+    no_echo: np.ndarray,
+    strips: str = "both",
+    drop_no_echo: bool = True,
+) -> np.ndarray:
+    """``(H, W)`` bool: the pixels a tile's threshold is computed from — the tile without
+    its no-echo areas (``no_echo``, :func:`.artefacts.no_echo_mask`; kept with
+    ``drop_no_echo=False``) and without its bright edge strips (:func:`bright_edge_strips`
+    at the Otsu level of the pixels outside no-echo areas; ``strips``: ``"both"`` rows
+    and columns, ``"rows"`` ping bands only, ``"none"``). Where that leaves nothing, the
+    tile without no-echo; where that is empty too, every pixel."""
+    if strips not in ("both", "rows", "none"):
+        raise ValueError(f"strips={strips!r}: allowed both, rows, none")
+    g = as_gray8(gray8)
+    ne = np.asarray(no_echo, dtype=bool)
+    if ne.shape != g.shape:
+        raise ValueError(f"no_echo: shape {ne.shape}, need the image's {g.shape}")
+    valid = ~ne
+    if not valid.any():
+        return np.ones(g.shape, bool)
+    if strips == "none":
+        return valid
+    level, _ = otsu_threshold_hist(np.bincount(g[valid], minlength=256))
+    band = bright_edge_strips(g, valid, level, columns=strips == "both")
+    keep = (valid if drop_no_echo else np.ones(g.shape, bool)) & ~band
+    return keep if keep.any() else valid
