@@ -129,10 +129,9 @@ def test_missing_file_and_unknown_name_are_named(tmp_path):
 def test_shipped_calibrated_presets_load():
     shipped = calibrated_presets()
     for name in shipped:
-        pf = load_preset_file(name, per_side=True)
+        pf = load_preset_file(name)
         assert pf.base in ("deepeye680d_realistic", "deepeye680d")
-        for side in ("port", "starboard") if pf.side_overrides else (None,):
-            assert pf.config(side).acoustic.realism is not None
+        assert pf.config().acoustic.realism is not None
 
 
 def test_scenario_sets_the_receiver_gain_over_a_shipped_preset():
