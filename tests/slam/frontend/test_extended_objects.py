@@ -152,7 +152,7 @@ def test_looks_along_range_keep_an_oblique_shadow():
     for i in range(n_rows):
         a = c0 + 5 * i
         raw[i, a - 3 : a] = 10.0
-        raw[i, a : a + 12] = 10 ** -2.5
+        raw[i, a : a + 12] = 10**-2.5
         rows += [i] * 3
         cols += [a - 3, a - 2, a - 1]
     rows, cols = np.array(rows), np.array(cols)
