@@ -120,12 +120,47 @@ def test_object_longer_than_the_hop_is_one_detection_at_its_middle():
 
 
 def test_speckle_alone_has_no_shadow():
-    """Seabed speckle (exponential, 3 x 3 looks) almost never reads 8 dB below the
-    75th percentile of its range: below 1 in 1000 samples (gamma(9) tail ~1e-4)."""
+    """Seabed speckle (exponential) averaged over the default looks (5 samples along
+    range) is Gamma(5, 1/5): the fraction reading 12 dB below its range column's 75th
+    percentile is the analytic Gamma(5) tail at 10^-1.2 of its 75 % quantile (~1e-4)."""
+    from scipy.stats import gamma, poisson
+
+    cfg = ShadowConfig()
+    n = cfg.looks * cfg.looks_pings
     rng = np.random.default_rng(0)
-    raw = rng.exponential(1.0, (200, 2 * S))
-    rel = make_shadow_db(False, 0.0, ShadowConfig())(raw)
-    assert np.mean(rel < -8.0) < 1e-3
+    raw = rng.exponential(1.0, (400, 2 * S))
+    rel = make_shadow_db(False, 0.0, cfg)(raw)
+    q75 = gamma.ppf(0.75, n, scale=1.0 / n)
+    p = gamma.cdf(q75 * 10 ** (-cfg.shadow_db / 10), n, scale=1.0 / n)
+    k = int(np.count_nonzero(rel[:, 4:-4] < -cfg.shadow_db))  # off the blur's borders
+    m = rel[:, 4:-4].size * p
+    assert poisson.ppf(1e-4, m) <= k <= poisson.ppf(1 - 1e-4, m), (k, m)
+    assert k / rel.size < 1e-3
+
+
+def test_looks_along_range_keep_an_oblique_shadow():
+    """A thin object lying oblique to the track (a branch): per ping a 0.6 m shadow
+    right behind a 3-sample highlight, both moving 5 samples across range per ping. With
+    the looks along range the shadow's core stays 25 dB deep and every row has a shadow;
+    averaged over 3 x 3 (3 pings) at most 6 of 9 samples are dark anywhere (-4.8 dB)
+    and no row reads a shadow."""
+    from slam.frontend.extended_objects import row_profile
+
+    n_rows, c0 = 20, S + 100
+    raw = np.ones((n_rows, 2 * S))
+    rows, cols = [], []
+    for i in range(n_rows):
+        a = c0 + 5 * i
+        raw[i, a - 3 : a] = 10.0
+        raw[i, a : a + 12] = 10**-2.5
+        rows += [i] * 3
+        cols += [a - 3, a - 2, a - 1]
+    rows, cols = np.array(rows), np.array(cols)
+    inner = slice(1, n_rows - 1)  # rows with a ping on both sides
+    for cfg, expect in ((ShadowConfig(), True), (ShadowConfig(looks=3, looks_pings=3), False)):
+        rel = make_shadow_db(False, 0.0, cfg)(raw)
+        sh0 = row_profile(rows, cols, False, S, rel, BIN, cfg)[3]
+        assert np.all((sh0[inner] >= 0) == expect), (cfg.looks, cfg.looks_pings, sh0)
 
 
 def test_shadow_config_rejects_bad_values():
@@ -135,6 +170,8 @@ def test_shadow_config_rejects_bad_values():
         ShadowConfig(part_shadow_rows=1.5)
     with pytest.raises(ValueError, match="background_percentile"):
         ShadowConfig(background_percentile=100.0)
+    with pytest.raises(ValueError, match="looks_pings"):
+        ShadowConfig(looks_pings=0)
 
 
 def _textured(rows, rng, texture_db, corr_m=1.0, speed=1.0, dt=0.1):
