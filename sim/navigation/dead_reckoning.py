@@ -132,7 +132,10 @@ class OdometryIncrement:
             raise ValueError(
                 f"OdometryIncrement needs delta (3,) and cov (3, 3), got {d.shape}, {c.shape}"
             )
-        if not (np.all(np.isfinite(d)) and np.all(np.isfinite(c))):
+        # a finite sum means all finite (one scalar test; the full one only on overflow)
+        if not math.isfinite(float(d.sum()) + float(c.sum())) and not (
+            np.all(np.isfinite(d)) and np.all(np.isfinite(c))
+        ):
             raise ValueError(f"OdometryIncrement must be finite, got delta={d}, cov={c.tolist()}")
         object.__setattr__(self, "delta", d)
         object.__setattr__(self, "cov", c)
@@ -543,11 +546,7 @@ class DeadReckoner:
         the last cut (no cut: a reckoner never cut gives the exact covariance of the
         whole run's dead-reckoned pose, in the frame of its start)."""
         self._propagate(float(t))
-        M = np.zeros((3, _N))
-        M[0, 0] = M[1, 1] = M[2, _PHI] = 1.0
-        M[2, _E0] = -1.0  # heading-change error e_psi − e0
-        cov = M @ self.P @ M.T
-        return 0.5 * (cov + cov.T)
+        return _cov.cut_covariance(self.P)
 
     def increment(self, t: float) -> OdometryIncrement:
         """Integrate to ``t`` and return ``[dx, dy, dphi]`` since the last cut, with cov."""

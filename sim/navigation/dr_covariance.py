@@ -146,3 +146,52 @@ def schmidt_update(P, K, h, var):
     for a in range(k):
         for b in range(k):
             P[rows[a], rows[b]] += K[rows[a]] * K[rows[b]] * var
+
+
+@numba.njit(cache=True)
+def cut_covariance(P):
+    """(3, 3) covariance of ``[dx, dy, dphi]`` since the cut: position rows of ``P``
+    and the heading-change error ``e_psi − e0``, symmetrized."""
+    C = np.empty((3, 3))
+    e = (I_P, I_P + 1, I_PHI)
+    for a in range(3):
+        for b in range(3):
+            C[a, b] = P[e[a], e[b]]
+    for a in range(3):  # row and column 2: e_psi − e0
+        C[a, 2] -= P[e[a], I_E0]
+    for b in range(2):
+        C[2, b] -= P[I_E0, e[b]]
+    C[2, 2] += P[I_E0, I_E0] - P[I_E0, I_PHI]
+    return 0.5 * (C + C.T)
+
+
+@numba.njit(cache=True)
+def _rot3(yaw):
+    """Identity with the 2-D rotation by ``yaw`` rad in its top-left block."""
+    B = np.eye(3)
+    c, s = np.cos(yaw), np.sin(yaw)
+    B[0, 0], B[0, 1], B[1, 0], B[1, 1] = c, -s, s, c
+    return B
+
+
+@numba.njit(cache=True)
+def matched_odometry_cov(cov_whole, cov_cut, yaw0, yaw_prev, dx, dy):
+    """``NavSuite.odometry``'s matched increment covariance ``Q`` (3, 3) (see there):
+    ``cov_whole`` the never-cut reckoner's covariance in its start frame, ``cov_cut`` the
+    recursion's covariance at the previous cut (updated in place), ``yaw0`` the start
+    heading, ``yaw_prev`` the heading at the previous cut (rad), ``dx, dy`` the
+    increment (m, frame of the previous cut)."""
+    B = _rot3(yaw0)
+    cov_now = B @ cov_whole @ B.T.copy()
+    c, s = np.cos(yaw_prev), np.sin(yaw_prev)
+    F = np.eye(3)
+    F[0, 2] = -s * dx - c * dy
+    F[1, 2] = c * dx - s * dy
+    Ft = F.T.copy()
+    G = _rot3(yaw_prev)
+    Gt = G.T.copy()
+    D = Gt @ (cov_now - F @ cov_cut @ Ft) @ G
+    w, V = np.linalg.eigh(0.5 * (D + D.T))
+    Q = (V * np.maximum(w, 0.0)) @ V.T.copy()
+    cov_cut[:] = F @ cov_cut @ Ft + G @ Q @ Gt
+    return 0.5 * (Q + Q.T)

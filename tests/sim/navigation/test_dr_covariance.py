@@ -7,6 +7,7 @@ agree to 1e-12 relative (to sqrt(P_ii P_jj)), and the estimate is bit-identical.
 
 from __future__ import annotations
 
+import math
 import types
 
 import numpy as np
@@ -15,6 +16,7 @@ import pytest
 from sim.navigation import DVLConfig, NavSuite, NavSuiteConfig
 from sim.navigation import dead_reckoning as dr
 from sim.navigation import dr_covariance as cov
+from sim.navigation import suite as suite_mod
 from tests.sim.navigation.test_nav_dead_reckoning import arc_states
 
 N = 21
@@ -60,11 +62,40 @@ def _dense_schmidt(P, K, h, var):
     P[:] = A @ P @ A.T + np.outer(K, K) * var
 
 
+def _dense_cut_covariance(P):
+    M = np.zeros((3, N))
+    M[0, 0] = M[1, 1] = M[2, dr._PHI] = 1.0
+    M[2, dr._E0] = -1.0
+    C = M @ P @ M.T
+    return 0.5 * (C + C.T)
+
+
+def _rot3(a):
+    B = np.eye(3)
+    B[:2, :2] = [[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]]
+    return B
+
+
+def _dense_matched(cov_whole, cov_cut, yaw0, yaw_prev, dx, dy):
+    B = _rot3(yaw0)
+    cov_now = B @ cov_whole @ B.T
+    c, s = math.cos(yaw_prev), math.sin(yaw_prev)
+    F = np.array([[1.0, 0.0, -s * dx - c * dy], [0.0, 1.0, c * dx - s * dy], [0.0, 0.0, 1.0]])
+    G = _rot3(yaw_prev)
+    D = G.T @ (cov_now - F @ cov_cut @ F.T) @ G
+    w, V = np.linalg.eigh(0.5 * (D + D.T))
+    Q = (V * np.maximum(w, 0.0)) @ V.T
+    cov_cut[:] = F @ cov_cut @ F.T + G @ Q @ G.T
+    return 0.5 * (Q + Q.T)
+
+
 DENSE = types.SimpleNamespace(
     propagate=_dense_propagate,
     fresh_noise=_dense_fresh,
     correct=_dense_correct,
     schmidt_update=_dense_schmidt,
+    cut_covariance=_dense_cut_covariance,
+    matched_odometry_cov=_dense_matched,
 )
 
 
@@ -112,7 +143,9 @@ def test_sandwich_rows_equals_dense_product():
     assert _close(got, ref, 1e-13)
 
 
-@pytest.mark.parametrize("name", ["propagate", "correct", "schmidt_update"])
+@pytest.mark.parametrize(
+    "name", ["propagate", "correct", "schmidt_update", "cut_covariance", "matched_odometry_cov"]
+)
 def test_each_kernel_equals_its_dense_formula(name):
     rng = np.random.default_rng(7)
     P = _spd(rng)
@@ -131,9 +164,21 @@ def test_each_kernel_equals_its_dense_formula(name):
         )
     elif name == "correct":
         args = (0, 4, rng.standard_normal((2, 3)), 1e-4)
-    else:
+    elif name == "schmidt_update":
         K = np.where(dr._UPDATED, rng.standard_normal(N), 0.0)
         args = (K, rng.standard_normal(N), 1e-3)
+    elif name == "cut_covariance":
+        assert _close(cov.cut_covariance(P), DENSE.cut_covariance(P), 1e-13)
+        return
+    else:  # Σ grown from the recursion's Σ̃ (3 × 3 blocks of two SPD matrices)
+        S3 = np.ascontiguousarray(P[:3, :3])
+        cut = S3 * 0.5
+        ref_cut, got_cut = cut.copy(), cut.copy()
+        q_ref = DENSE.matched_odometry_cov(S3, ref_cut, 0.3, -1.2, 0.5, 0.1)
+        q_got = cov.matched_odometry_cov(S3, got_cut, 0.3, -1.2, 0.5, 0.1)
+        assert _close(q_got, q_ref, 1e-13, scale=S3)
+        assert _close(got_cut, ref_cut, 1e-13)
+        return
     ref, got = P.copy(), P.copy()
     getattr(DENSE, name)(ref, *args)
     getattr(cov, name)(got, *args)
@@ -143,6 +188,7 @@ def test_each_kernel_equals_its_dense_formula(name):
 
 def _long_run(monkeypatch, kernels, duration=240.0):
     monkeypatch.setattr(dr, "_cov", kernels)
+    monkeypatch.setattr(suite_mod, "_cov", kernels)
     dvl = DVLConfig.preset("rdi600", dropout_prob=0.1)
     cfg = NavSuiteConfig(dvl=dvl)  # consumer IMU: compass-aided, gyro bias estimated
     assert cfg.aided
