@@ -36,6 +36,8 @@ import numpy as np
 
 KINDS = ("propeller", "fin")
 FIN_STALL_RAD = 0.35  # incidence beyond which the fin lift saturates (≈ 20°, low aspect ratio)
+PINV_RCOND = 1e-6  # allocation pseudo-inverse: singular values below this × the largest are dropped
+SCALED_COND_MAX = 1e3  # fin-scaled allocation matrices reuse pinv(B0) up to this condition bound
 
 
 @dataclass(frozen=True)
@@ -158,6 +160,38 @@ class ThrusterBank:
         self.force[:] = f
         return (self._scatter * f) @ self.columns
 
+    def _pinv(
+        self, vehicle: int, dkey: bytes, sel: np.ndarray, b: np.ndarray, scale: np.ndarray | None
+    ) -> np.ndarray:
+        """Pseudo-inverse (rcond ``PINV_RCOND``) of b = B0 diag(scale[sel]), B0 the vehicle's
+        unscaled configuration rows ``dkey`` and channels ``sel``; scale None: b = B0.
+
+        pinv(B0) is computed once per (vehicle, dofs, channels). Finless (scale None) it
+        is the answer, bit for bit. With fins, when B0 has full column rank and
+        diag(scale) keeps b well conditioned (σ_min(B0) min|s| > σ_max(B0) max|s| /
+        ``SCALED_COND_MAX``, so no singular value of b falls under the rcond cutoff),
+        pinv(B0 D) = D⁻¹ pinv(B0) exactly and differs from ``np.linalg.pinv(b)`` only by
+        rounding (≲ 1e-13 relative); otherwise b's own pseudo-inverse is computed."""
+        key = (vehicle, dkey, sel.tobytes())
+        hit = self._pinv_cache.get(key)
+        if hit is None:
+            cols = self.columns[self.offsets[vehicle] : self.offsets[vehicle + 1]].T
+            b0 = cols[np.frombuffer(dkey, dtype=bool)][:, sel]
+            sv = np.linalg.svd(b0, compute_uv=False)
+            full = b0.shape[1] <= b0.shape[0] and sv[-1] > 0.0
+            hit = (np.linalg.pinv(b0, rcond=PINV_RCOND), full, sv[0], sv[-1] if full else 0.0)
+            self._pinv_cache[key] = hit
+        pinv0, full, smax, smin = hit
+        if scale is None:
+            return pinv0
+        d = scale[sel]
+        if (d == 1.0).all():  # only propellers among the channels: b is B0
+            return pinv0
+        a = np.abs(d)
+        if full and smin * a.min() * SCALED_COND_MAX > smax * a.max():
+            return pinv0 / d[:, None]
+        return np.linalg.pinv(b, rcond=PINV_RCOND)
+
     def allocate(
         self, vehicle: int, tau: np.ndarray, dofs: np.ndarray, speed_sq: float
     ) -> np.ndarray:
@@ -179,18 +213,14 @@ class ThrusterBank:
         lower = -self.f_rev[lo:hi]
         f = np.zeros(k)
         free = np.ones(k, dtype=bool)
+        scale = np.where(fin, speed_sq, 1.0) if fin.any() else None
+        dkey = dofs.tobytes()
         for it in range(k):  # redistributed pseudo-inverse
-            if it == 0:  # all channels free: the (cached, when finless) full pseudo-inverse
-                key = (vehicle, dofs.tobytes())
-                pinv = self._pinv_cache.get(key) if not fin.any() else None
-                if pinv is None:
-                    pinv = np.linalg.pinv(b, rcond=1e-6)
-                    if not fin.any():
-                        self._pinv_cache[key] = pinv
-                f = pinv @ t
+            if it == 0:  # all channels free
+                f = self._pinv(vehicle, dkey, free, b, scale) @ t
             else:
                 resid = t - b[:, ~free] @ f[~free]
-                f[free] = np.linalg.pinv(b[:, free], rcond=1e-6) @ resid
+                f[free] = self._pinv(vehicle, dkey, free, b[:, free], scale) @ resid
             over = free & ((f > upper) | (f < lower))
             if not over.any():
                 break

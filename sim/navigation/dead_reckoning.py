@@ -78,6 +78,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.navigation import dr_covariance as _cov
 from sim.navigation.sensors import (
     AHRSConfig,
     AHRSMeasurement,
@@ -131,7 +132,10 @@ class OdometryIncrement:
             raise ValueError(
                 f"OdometryIncrement needs delta (3,) and cov (3, 3), got {d.shape}, {c.shape}"
             )
-        if not (np.all(np.isfinite(d)) and np.all(np.isfinite(c))):
+        # a finite sum means all finite (one scalar test; the full one only on overflow)
+        if not math.isfinite(float(d.sum()) + float(c.sum())) and not (
+            np.all(np.isfinite(d)) and np.all(np.isfinite(c))
+        ):
             raise ValueError(f"OdometryIncrement must be finite, got delta={d}, cov={c.tolist()}")
         object.__setattr__(self, "delta", d)
         object.__setattr__(self, "cov", c)
@@ -339,40 +343,31 @@ class DeadReckoner:
         phi_mid = self.phi + 0.5 * rate * h
         R = _rot2(phi_mid)
         dp = R @ (T @ self.v) * h
-        # error-state transition
-        F = _EYE.copy()
-        Jdp = np.array([-dp[1], dp[0]])  # d(dp)/d(phi_mid)
-        F[_P, _PHI] = Jdp  # the rotation uses the heading change, error e_psi − e0
-        F[_P, _E0] = -Jdp
-        F[_P, _NV] = R @ T * h
-        F[_P, _NW] = np.outer(Jdp, cz) * 0.5 * h
-        F[_P, _B] = np.outer(Jdp, cz) * 0.5 * h
-        F[_PHI, _NW] = cz * h
-        F[_PHI, _B] = cz * h  # the bias adds to the measured rate like its noise
-        # constant DVL errors: v_meas - v = s v + m Jz v + b (first order)
-        F[_P, _S] = R @ (T @ self.v) * h
-        F[_P, _M] = R @ (T @ np.array([-self.v[1], self.v[0], 0.0])) * h
-        F[_P, _BV] = R @ T * h
+        # error-state transition F P Fᵀ and process noise (dr_covariance.propagate)
+        RT = R @ T
         a = math.exp(-h / c.compass_drift_tau_s)
-        F[_G, _G] = a
-        self.P = F @ self.P @ F.T
-        self.P[_G, _G] += c.compass_drift_std**2 * (1.0 - a * a)
         q_b = c.gyro_bias_rw**2 + 2.0 * c.gyro_bias_instability**2 / c.gyro_bias_tau_s
-        if q_b > 0:
-            self.P[_B, _B] += np.eye(2) * q_b * h
-        if self.coasting and c.coast_velocity_std > 0:
-            self.P[_NV, _NV] += np.eye(3) * c.coast_velocity_std**2 * h
+        _cov.propagate(
+            self.P,
+            np.array([-dp[1], dp[0]]),  # d(dp)/d(phi_mid), phi_mid from e_psi − e0
+            RT,
+            cz,
+            # constant DVL errors: v_meas - v = s v + m Jz v + b (first order)
+            R @ (T @ self.v),
+            R @ (T @ np.array([-self.v[1], self.v[0], 0.0])),
+            h,
+            a,
+            c.compass_drift_std**2 * (1.0 - a * a),
+            q_b * h if q_b > 0 else 0.0,
+            c.coast_velocity_std**2 * h if self.coasting and c.coast_velocity_std > 0 else 0.0,
+        )
         self.p = self.p + dp
         self.phi = self.phi + rate * h
         self.t = t
 
     def _fresh_noise(self, idx, var: float) -> None:
-        self.P[idx, :] = 0.0
-        self.P[:, idx] = 0.0
-        if isinstance(idx, slice):
-            self.P[idx, idx] = np.eye(idx.stop - idx.start) * var
-        else:
-            self.P[idx, idx] = var
+        i0, k = (idx.start, idx.stop - idx.start) if isinstance(idx, slice) else (idx, 1)
+        _cov.fresh_noise(self.P, i0, k, var)
 
     # -- inputs ------------------------------------------------------------------------
 
@@ -387,16 +382,14 @@ class DeadReckoner:
         a = max(t_prev, self.t_start) - t_prev
         return (h * h - a * a) / (2.0 * h)
 
-    def _correct(self, rows, cols, G, noise_idx, var: float, dx) -> None:
-        """Apply the deterministic correction ``dx`` to the state rows and propagate its
-        error G (n_new − n_old): remove G n_old, draw a fresh n_new, add G n_new."""
-        F = _EYE.copy()
-        F[rows, cols] = -G
-        self.P = F @ self.P @ F.T
-        self._fresh_noise(noise_idx, var)
-        F[rows, cols] = G
-        self.P = F @ self.P @ F.T
-        return dx
+    def _correct(self, rows, cols: slice, G, var: float) -> None:
+        """Propagate the error of a correction ``G (n_new − n_old)`` of the state rows
+        (the caller applies the correction itself): remove G n_old, draw a fresh n_new
+        of the noise states ``cols`` with variance ``var``, add G n_new
+        (dr_covariance.correct)."""
+        r0 = rows.start if isinstance(rows, slice) else rows
+        G = np.asarray(G, float).reshape(-1, cols.stop - cols.start)
+        _cov.correct(self.P, r0, cols.start, G, var)
 
     def _levelling(self) -> tuple[np.ndarray, np.ndarray]:
         """Levelling rows T (2, 3) and the Euler yaw-rate coefficients (2,) of the body
@@ -424,14 +417,14 @@ class DeadReckoner:
                 wt = m.t - max(self._t_w, self.t_start)
                 var = c.gyro_noise_density**2 / (m.t - self._t_w)
                 self.phi += float(cz @ (w_new - self.w)) * wt
-                self._correct(_PHI, _NW, cz * wt, _NW, var, None)
+                self._correct(_PHI, _NW, cz * wt, var)
                 self.w = w_new
                 self._t_w = m.t
                 return
             wt = self._trapezoid(self._t_w, m.t)
             if wt > 0:
                 self.phi += float(cz @ (w_new - self.w)) * wt
-                self._correct(_PHI, _NW, cz * wt, _NW, c.gyro_sample_std**2, None)
+                self._correct(_PHI, _NW, cz * wt, c.gyro_sample_std**2)
             else:
                 self._fresh_noise(_NW, c.gyro_sample_std**2)
             self.w = w_new
@@ -448,7 +441,7 @@ class DeadReckoner:
                     R = _rot2(self.phi - 0.5 * float(cz @ (self.w - self.b_hat)) * wt)
                     G = R @ T * wt
                     self.p = self.p + G @ (v_new - self.v)
-                    self._correct(_P, _NV, G, _NV, c.dvl_velocity_std**2, None)
+                    self._correct(_P, _NV, G, c.dvl_velocity_std**2)
                     self.v = v_new
                     self._t_v = m.t
                     self.coasting = False
@@ -461,7 +454,7 @@ class DeadReckoner:
                     R = _rot2(self.phi - 0.5 * float(cz @ (self.w - self.b_hat)) * span)
                     G = R @ T * wt
                     self.p = self.p + G @ (v_new - self.v)
-                    self._correct(_P, _NV, G, _NV, c.dvl_velocity_std**2, None)
+                    self._correct(_P, _NV, G, c.dvl_velocity_std**2)
                 else:
                     self._fresh_noise(_NV, c.dvl_velocity_std**2)
                 self.v = v_new
@@ -525,8 +518,7 @@ class DeadReckoner:
         self.p = self.p - dx[_P]
         self.phi = self.phi - dx[_PHI]
         self.b_hat = self.b_hat + dx[_B]  # the bias state is (true − estimate)
-        A = _EYE - np.outer(K, h)
-        self.P = A @ self.P @ A.T + np.outer(K, K) * var
+        _cov.schmidt_update(self.P, K, h, var)  # Joseph form: P ← A P Aᵀ + K var Kᵀ
 
     @staticmethod
     def _compass_row(psi: float) -> np.ndarray:
@@ -554,11 +546,7 @@ class DeadReckoner:
         the last cut (no cut: a reckoner never cut gives the exact covariance of the
         whole run's dead-reckoned pose, in the frame of its start)."""
         self._propagate(float(t))
-        M = np.zeros((3, _N))
-        M[0, 0] = M[1, 1] = M[2, _PHI] = 1.0
-        M[2, _E0] = -1.0  # heading-change error e_psi − e0
-        cov = M @ self.P @ M.T
-        return 0.5 * (cov + cov.T)
+        return _cov.cut_covariance(self.P)
 
     def increment(self, t: float) -> OdometryIncrement:
         """Integrate to ``t`` and return ``[dx, dy, dphi]`` since the last cut, with cov."""
@@ -571,15 +559,17 @@ class DeadReckoner:
         )
         # new interval: position error restarts at zero; with an absolute heading the
         # clone e0 takes the current heading error, without one the heading-change error
-        # restarts at zero; held-noise and bias states carry over
-        A = _EYE.copy()
-        A[_P, :] = 0.0
+        # restarts at zero; held-noise and bias states carry over. P ← A P Aᵀ for that
+        # A (rows of the identity or zero) is a copy of rows and columns, done in place
+        P = self.P
+        P[_P, :] = 0.0
+        P[:, _P] = 0.0
         if self.psi0 is not None:
-            A[_E0, :] = 0.0
-            A[_E0, _PHI] = 1.0
+            P[_E0, :] = P[_PHI, :]
+            P[:, _E0] = P[:, _PHI]
         else:
-            A[_PHI, :] = 0.0
-        self.P = A @ self.P @ A.T
+            P[_PHI, :] = 0.0
+            P[:, _PHI] = 0.0
         if self.psi0 is not None:
             self.psi0 = _wrap(self.psi0 + self.phi)
         self.p = np.zeros(2)

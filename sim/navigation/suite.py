@@ -8,6 +8,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from sim.navigation import dr_covariance as _cov
 from sim.navigation.dead_reckoning import DeadReckoner, DeadReckoningConfig, OdometryIncrement
 from sim.navigation.sensors import (
     AHRS,
@@ -194,19 +195,15 @@ class NavSuite:
         self._pose_cut = _compose(x_prev, inc.delta)
         if self._whole is None:
             return inc
-        B = np.eye(3)
-        B[:2, :2] = _rot2(self._yaw0)
-        cov_now = B @ self._whole.covariance_since_cut(t) @ B.T
-        c, s = math.cos(x_prev[2]), math.sin(x_prev[2])
-        dx, dy = inc.delta[0], inc.delta[1]
-        F = np.array([[1.0, 0.0, -s * dx - c * dy], [0.0, 1.0, c * dx - s * dy], [0.0, 0.0, 1.0]])
-        G = np.eye(3)
-        G[:2, :2] = _rot2(x_prev[2])
-        D = G.T @ (cov_now - F @ self._cov_cut @ F.T) @ G
-        w, V = np.linalg.eigh(0.5 * (D + D.T))
-        Q = (V * np.maximum(w, 0.0)) @ V.T
-        self._cov_cut = F @ self._cov_cut @ F.T + G @ Q @ G.T
-        return OdometryIncrement(delta=inc.delta, cov=0.5 * (Q + Q.T), t=inc.t, t_start=inc.t_start)
+        Q = _cov.matched_odometry_cov(
+            self._whole.covariance_since_cut(t),
+            self._cov_cut,
+            self._yaw0,
+            float(x_prev[2]),
+            float(inc.delta[0]),
+            float(inc.delta[1]),
+        )
+        return OdometryIncrement(delta=inc.delta, cov=Q, t=inc.t, t_start=inc.t_start)
 
     def pose(self) -> np.ndarray:
         """The vehicle's own navigation pose [x, y, yaw] (world m, rad): the initial pose
@@ -241,11 +238,6 @@ class NavSuite:
                 "dead reckoning coasted on its initial velocity"
             )
         return out
-
-
-def _rot2(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s], [s, c]])
 
 
 def _yaw_rotated(q_wxyz: np.ndarray, d: float) -> np.ndarray:

@@ -209,8 +209,9 @@ class ScenarioRun:
         v.autopilot = autopilot_for(self.world, v.spec.name, mission, check=False)
         v.surfacing = True
 
-    def _record_truth(self, v: VehicleRuntime) -> None:
-        st = v.handle.state()
+    def _record_truth(self, v: VehicleRuntime, st=None) -> None:
+        """Append the true pose now (``st``: the vehicle's state already read now)."""
+        st = v.handle.state() if st is None else st
         v.true_t.append(st.t)
         v.true_pose.append([st.position[0], st.position[1], st.position[2], yaw_of(st.quat_wxyz)])
 
@@ -228,7 +229,7 @@ class ScenarioRun:
         if st.t > v.true_t[-1] + 1e-9:
             inc = v.nav.odometry(st.t)
             v.slam.add_odometry(Odometry(inc.delta, inc.cov, inc.t))
-            self._record_truth(v)
+            self._record_truth(v, st)
         self.timer.add("navigation", t0)
 
     def _fire(self, v: VehicleRuntime, s: SonarRuntime) -> None:
