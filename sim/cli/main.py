@@ -42,7 +42,7 @@ class Command:
 #: command name -> its module and the line ``undersea --help`` shows for it
 COMMANDS: dict[str, Command] = {
     "demo": Command(
-        "run_cmd", "a one-minute survey over a wreck into ./runs/demo (--full: the 540 s survey)"
+        "run_cmd", "a one-minute survey over a wreck into ./runs/demo (--full: the 450 s survey)"
     ),
     "run": Command(
         "run_cmd",

@@ -4,7 +4,7 @@
 writes ``DIR/recording.rrd``, ``DIR/metrics.json`` and PNG figures (see sim.runner).
 ``demo`` runs a one-minute cut of the default scenario (shipwreck-survey: the first
 survey line, past a rock and the wreck) into ``runs/demo``; ``--full`` runs the whole
-540 s survey (with its compass-calibration loop). Both refuse to replace an existing output unless ``--overwrite``.
+450 s survey. Both refuse to replace an existing output unless ``--overwrite``.
 ``scenarios`` lists the built-ins with their descriptions.
 """
 
@@ -20,11 +20,9 @@ DEFAULT_SCENARIO = "shipwreck-survey"
 
 DEMO_OUT = Path("runs") / "demo"
 #: the quick demo: the first survey line of shipwreck-survey, shortened to pass a rock and
-#: the wreck in 60 simulated seconds (well under a minute of wall time on 2 cores), without
-#: the survey's compass-calibration loop
+#: the wreck in 60 simulated seconds (well under a minute of wall time on 2 cores)
 DEMO_OVERRIDES = {
     "duration_s": 60.0,
-    "vehicles[0].mission.calibration_laps": 0,
     "vehicles[0].start.position": [-40.0, -30.0, -22.0],
     "vehicles[0].mission.center": [30.0, 0.0],
 }
@@ -52,7 +50,7 @@ def add_command_arguments(name: str, parser: argparse.ArgumentParser) -> None:
     )
     if name == "demo":
         parser.add_argument(
-            "--full", action="store_true", help="the whole 540 s survey instead of one minute"
+            "--full", action="store_true", help="the whole 450 s survey instead of one minute"
         )
     parser.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     parser.add_argument(

@@ -172,8 +172,7 @@ def test_demo_refuses_to_overwrite(tmp_path, capsys):
 
 def test_demo_default_is_short_and_full_is_the_whole_survey():
     """The quick demo is a 60 s cut of the survey file; --full is the file's whole survey
-    (540 s: the compass-calibration loop, the lawnmower and its tie line), read here from
-    the TOML itself; the quick demo flies the first line straight, without the loop."""
+    (450 s: the lawnmower and its tie line), read here from the TOML itself."""
     import tomllib
     from pathlib import Path
 
@@ -184,9 +183,7 @@ def test_demo_default_is_short_and_full_is_the_whole_survey():
     full = load_scenario(DEFAULT_SCENARIO)
     toml = Path(__file__).parents[2] / "assets" / "scenarios" / f"{DEFAULT_SCENARIO}.toml"
     file_duration = tomllib.loads(toml.read_text())["duration_s"]
-    assert quick.duration_s <= 60.0 < full.duration_s == file_duration == 540.0
-    assert full.vehicles[0].mission.calibration_laps == 1
-    assert quick.vehicles[0].mission.calibration_laps == 0
+    assert quick.duration_s <= 60.0 < full.duration_s == file_duration == 450.0
     # the quick survey still passes the wreck within the side-scan's 40 m range
     wreck = next(o for o in quick.world.objects if o.cls == "shipwreck")
     start = np.array(quick.vehicles[0].start_position[:2])

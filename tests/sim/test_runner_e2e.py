@@ -15,9 +15,8 @@ from sim.viz.rerun_log import read_component, read_recording
 
 #: CI size: 400 samples per side instead of 1000 (same 40 m range) and a shorter first
 #: leg (x from -45 m): it passes the rock at (-30, -16) and the wreck at (10, -12), 18 m
-#: to port, within 55 s (straight: without the survey's compass-calibration loop).
+#: to port, within 55 s.
 SMALL_SSS = {
-    "vehicles[0].mission.calibration_laps": 0,
     "vehicles[0].sonars[0].overrides": {
         "max_range": 40.0,
         "samples_per_side": 400,

@@ -82,7 +82,8 @@ def test_short_run_prints_and_writes_slam_and_dead_reckoning(tmp_path):
 
 
 def test_short_wreck_survey_loop_observes_the_compass_deviation(tmp_path):
-    """The first 130 s of shipwreck-survey (CI-size side-scan): 40 m of the first line
+    """The first 130 s of shipwreck-survey with its compass-calibration loop switched on
+    (``calibration_laps = 1``; CI-size side-scan): 40 m of the first line
     past the rock (14 m to port), the compass-calibration loop (one 20 m turn to
     starboard, 84 s) and back on the line past the rock again. The rock maps to one
     landmark (the closure is associated, not duplicated); the closure observes the
@@ -91,9 +92,11 @@ def test_short_wreck_survey_loop_observes_the_compass_deviation(tmp_path):
     (AHRSConfig mems_ahrs), above the rock's ~0.5 m position errors, so both
     coefficients' sd fall below 0.8 of that prior (one closure: ~0.55 of it expected);
     the pose NEES stays inside its interval on >= 90 % of the steps."""
-    res = _run(
-        "shipwreck-survey", 1, tmp_path, 130.0, {"vehicles[0].sonars[0].overrides": SMALL_SSS}
-    )
+    extra = {
+        "vehicles[0].sonars[0].overrides": SMALL_SSS,
+        "vehicles[0].mission.calibration_laps": 1,
+    }
+    res = _run("shipwreck-survey", 1, tmp_path, 130.0, extra)
     assert_prints_and_writes_slam_and_dead_reckoning(res)
     (v,) = res.metrics["vehicles"].values()
     assert v["pose"]["nees_in_95_interval"] >= 0.9, v["pose"]
