@@ -21,6 +21,7 @@ from sim.guidance.missions import (
     lawnmower_spacing,
     loop,
     straight_line,
+    with_calibration_loop,
 )
 from sim.guidance.pid import PID, PIDGains
 from sim.guidance.world_adapter import (
@@ -58,5 +59,6 @@ __all__ = [
     "plant_for",
     "split_authority",
     "straight_line",
+    "with_calibration_loop",
     "wrap",
 ]

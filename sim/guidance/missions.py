@@ -27,6 +27,7 @@ __all__ = [
     "lawnmower_spacing",
     "loop",
     "straight_line",
+    "with_calibration_loop",
 ]
 
 
@@ -198,6 +199,49 @@ def loop(
     closed = w if np.allclose(w[0], w[-1]) else np.vstack([w, w[:1]])
     path = np.vstack([closed] + [closed[1:]] * (laps - 1))
     return Mission("loop", path, speed, depth, altitude, acceptance_radius=acceptance_radius)
+
+
+def with_calibration_loop(
+    mission: Mission, at: float, radius: float, laps: int = 1, n_per_lap: int = 16
+) -> Mission:
+    """``mission`` with ``laps`` full turns of ``radius`` m to starboard flown from the
+    point ``at`` m along its first leg, back to that point on the same heading, before
+    the rest of the leg: a compass-calibration loop (every heading flown once per lap,
+    the start of the loop re-imaged at its end). Each lap is a regular polygon of
+    ``n_per_lap`` waypoints tangent to the leg; a lawnmower's lines step to port, so the
+    loop lies outside its box."""
+    w = mission.waypoints
+    if mission.n_legs < 1:
+        raise ValueError(f"a calibration loop needs a mission with a first leg, got {w.tolist()}")
+    leg = w[1] - w[0]
+    length = float(np.hypot(*leg))
+    if not (isinstance(at, int | float) and 0.0 < at < length):
+        raise ValueError(
+            f"calibration loop at must lie inside the first leg (0, {length:g}) m, got {at!r}"
+        )
+    _pos("calibration loop radius", radius)
+    if not (isinstance(laps, int) and laps >= 1):
+        raise ValueError(f"calibration loop laps must be an integer >= 1, got {laps!r}")
+    u = leg / length
+    port = np.array([-u[1], u[0]])
+    p = w[0] + at * u
+    c = p - radius * port  # centre to starboard
+    th = (
+        math.atan2(port[1], port[0])
+        - 2.0 * math.pi * np.arange(1, n_per_lap * laps + 1) / n_per_lap
+    )
+    ring = c + radius * np.column_stack([np.cos(th), np.sin(th)])
+    ring[-1] = p  # closes exactly where it started
+    wps = np.vstack([w[:1], p, ring, w[1:]])
+    return Mission(
+        mission.kind,
+        wps,
+        mission.speed,
+        mission.depth,
+        mission.altitude,
+        acceptance_radius=mission.acceptance_radius,
+        hold_time=mission.hold_time,
+    )
 
 
 def straight_line(

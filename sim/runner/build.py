@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from sim.guidance import Mission, hold, lawnmower, loop, straight_line
+from sim.guidance import Mission, hold, lawnmower, loop, straight_line, with_calibration_loop
 from sim.scenario.schema import Scenario, SonarSpec, VehicleSpec
 from sim.scenario.seabed_check import seabed_spec
 from sim.sonar import ForwardLookingSonar, MSISSonar, SideScanSonar, preset
@@ -102,6 +102,10 @@ def mission_for(v: VehicleSpec, swath: float) -> Mission:
         if m.tie_line:  # back to the first line's start across all lines
             mission = replace(
                 mission, waypoints=np.vstack([mission.waypoints, mission.waypoints[:1]])
+            )
+        if m.calibration_laps:  # compass-calibration loop on the first line
+            mission = with_calibration_loop(
+                mission, m.calibration_at_m, m.calibration_radius_m, m.calibration_laps
             )
         return mission
     if m.type == "loop":

@@ -103,7 +103,10 @@ class MissionSpec:
     navigation puts it (GPS fixes at the surface; a fix at the end of the run anchors the
     fleet's fused map, sim.runner.fleet). ``tie_line`` (lawnmower only): after the last
     line, fly straight back to the start of the first one — a tie line crossing every
-    line at an oblique heading, re-imaging the site and closing the loop at the start."""
+    line at an oblique heading, re-imaging the site and closing the loop at the start.
+    ``calibration_laps`` (lawnmower only, 0 = none): that many full turns of
+    ``calibration_radius_m`` to starboard flown from ``calibration_at_m`` along the first
+    line and back to it (a compass-calibration loop, sim.guidance.with_calibration_loop)."""
 
     type: str = "lawnmower"
     speed_mps: float = 1.5
@@ -117,6 +120,9 @@ class MissionSpec:
     loops: int = 1
     surface_at_s: float | None = None
     tie_line: bool = False
+    calibration_laps: int = 0
+    calibration_radius_m: float = 20.0
+    calibration_at_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -445,6 +451,9 @@ def _parse_mission(d, path) -> MissionSpec:
             "loops",
             "surface_at_s",
             "tie_line",
+            "calibration_laps",
+            "calibration_radius_m",
+            "calibration_at_m",
         ),
     )
     typ = _str(d.get("type", "lawnmower"), f"{path}.type", MISSION_TYPES)
@@ -480,7 +489,27 @@ def _parse_mission(d, path) -> MissionSpec:
         if d.get("surface_at_s") is None
         else _num(d["surface_at_s"], f"{path}.surface_at_s", 0.0, lo_open=True),
         tie_line=_tie_line(d, typ, path),
+        **_calibration_loop(d, typ, path),
     )
+
+
+def _calibration_loop(d, typ: str, path: str) -> dict:
+    laps = _int(d.get("calibration_laps", 0), f"{path}.calibration_laps", lo=0, hi=100)
+    if laps and typ != "lawnmower":
+        raise _fail(f"{path}.calibration_laps", laps, "0 unless type = 'lawnmower'")
+    return {
+        "calibration_laps": laps,
+        "calibration_radius_m": _num(
+            d.get("calibration_radius_m", 20.0),
+            f"{path}.calibration_radius_m",
+            0.0,
+            1000.0,
+            lo_open=True,
+        ),
+        "calibration_at_m": _num(
+            d.get("calibration_at_m", 0.0), f"{path}.calibration_at_m", 0.0, 20000.0
+        ),
+    }
 
 
 def _tie_line(d, typ: str, path: str) -> bool:

@@ -18,6 +18,7 @@ from sim.guidance import (
     loop,
     los_guidance,
     straight_line,
+    with_calibration_loop,
 )
 
 
@@ -114,6 +115,30 @@ def test_loop_closes_and_repeats():
     assert m.length == pytest.approx(160.0)
 
 
+@pytest.mark.parametrize(("heading", "laps"), [(0.0, 1), (2.0, 2)])
+def test_calibration_loop_is_a_starboard_circle_tangent_to_the_first_line(heading, laps):
+    """The loop's vertices lie on a circle of radius R through the point ``at`` m along
+    the first line, centred R to starboard of it (tangent there), swept clockwise seen
+    from above (a starboard turn) through ``laps`` full turns; the rest is unchanged."""
+    base = lawnmower(
+        (5, -3), 80.0, 40.0, 10.0, 0.0, speed=1.0, altitude=8.0, heading=heading, spacing=20.0
+    )
+    r, at, n = 15.0, 30.0, 16
+    m = with_calibration_loop(base, at, r, laps=laps, n_per_lap=n)
+    u = np.array([math.cos(heading), math.sin(heading)])
+    p = base.waypoints[0] + at * u
+    centre = p + r * np.array([u[1], -u[0]])  # starboard of the line
+    ring = m.waypoints[1 : 2 + n * laps]
+    np.testing.assert_allclose(ring[0], p, atol=1e-9)
+    np.testing.assert_allclose(ring[-1], p, atol=1e-9)
+    np.testing.assert_allclose(np.hypot(*(ring - centre).T), r, atol=1e-9)
+    ang = np.unwrap(np.arctan2(*(ring - centre).T[::-1]))
+    assert np.all(np.diff(ang) < 0) and ang[0] - ang[-1] == pytest.approx(2 * math.pi * laps)
+    np.testing.assert_array_equal(m.waypoints[2 + n * laps :], base.waypoints[1:])
+    chord = 2 * r * math.sin(math.pi / n)
+    assert m.length == pytest.approx(base.length + n * laps * chord)
+
+
 def test_straight_line_and_hold():
     m = straight_line((0, 0), (30, 40), speed=1.2, altitude=5.0)
     assert m.n_legs == 1 and m.length == pytest.approx(50.0)
@@ -141,6 +166,14 @@ def test_mission_leaving_world_names_waypoint_and_bounds():
         (lambda: straight_line((0, 0), (1, 0), speed=1), "exactly one of depth or altitude"),
         (lambda: loop([(0, 0)], speed=1, depth=1), "N >= 2"),
         (lambda: straight_line((0, 0), (np.nan, 0), speed=1, depth=1), "not finite"),
+        (
+            lambda: with_calibration_loop(straight_line((0, 0), (10, 0), speed=1, depth=1), 12, 5),
+            r"inside the first leg \(0, 10\) m, got 12",
+        ),
+        (
+            lambda: with_calibration_loop(straight_line((0, 0), (10, 0), speed=1, depth=1), 5, 0),
+            "radius",
+        ),
     ],
 )
 def test_bad_mission_input(call, match):

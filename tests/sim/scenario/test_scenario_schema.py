@@ -208,3 +208,26 @@ def test_tie_line_only_on_a_lawnmower_and_closes_at_the_start(base):
     # three lines of 100 m at y = -20, 0, 20 (centre 0, 0), then back to the first start
     assert len(wps) == 7 and wps[-1].tolist() == wps[0].tolist() == [-50.0, -20.0]
     assert wps[-2].tolist() == [50.0, 20.0]
+
+
+def test_calibration_loop_only_on_a_lawnmower_and_flown_on_the_first_line(base):
+    from sim.runner.build import mission_for
+
+    m = base["vehicles"][0]["mission"]
+    m.update(calibration_laps=-1)
+    assert "vehicles[0].mission.calibration_laps" in _err(base)
+    m.update(calibration_laps=1, tie_line=False, type="loop", waypoints=[[0, 0], [10, 0]])
+    msg = _err(base)
+    assert "vehicles[0].mission.calibration_laps" in msg and "lawnmower" in msg
+    m.update(type="lawnmower", size_m=[100.0, 40.0], line_spacing_m=20.0, calibration_at_m=30.0)
+    m.update(calibration_radius_m=-2.0)
+    assert "vehicles[0].mission.calibration_radius_m" in _err(base)
+    m.update(calibration_radius_m=10.0)
+    wps = mission_for(parse_scenario(base).vehicles[0], 50.0).waypoints
+    # first line y = -20 from x = -50: the loop leaves and rejoins it at (-20, -20), its
+    # far side 2 R to starboard (south), then the line goes on to (50, -20)
+    assert wps[1].tolist() == [-20.0, -20.0] and wps[17].tolist() == [-20.0, -20.0]
+    assert wps[:18, 1].min() == pytest.approx(-40.0) and wps[18].tolist() == [50.0, -20.0]
+    m.update(calibration_at_m=150.0)  # past the 100 m line
+    with pytest.raises(ValueError, match="inside the first leg"):
+        mission_for(parse_scenario(base).vehicles[0], 50.0)
