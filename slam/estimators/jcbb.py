@@ -115,8 +115,8 @@ def jcbb(
     k = z.shape[0]
     R = np.asarray(R, dtype=float)
     R = np.broadcast_to(R, (k, 2, 2)) if R.shape == (2, 2) else R
-    gate = chi2_limits(confidence, 1)[0] if individual_gate is None else float(individual_gate)
     limits = chi2_limits(confidence, max(k, 1))
+    gate = limits[0] if individual_gate is None else float(individual_gate)
     # most scans (no candidate, one, or one each and jointly compatible) are decided by
     # one compiled call; the rest go to the branch and bound
     status, pairs, nis, d2, nodes = jcbb_easy(
