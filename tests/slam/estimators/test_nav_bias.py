@@ -274,7 +274,7 @@ def _spd(rng, n, zero=0, cond=None):
     A = rng.standard_normal((n, n + 3))
     P = A @ A.T
     if cond is not None:  # eigenvalues spread over ``cond``
-        w, V = np.linalg.eigh(P)
+        _, V = np.linalg.eigh(P)
         P = (V * np.geomspace(1.0, 1.0 / cond, n)) @ V.T
         P = 0.5 * (P + P.T)
     scale = np.geomspace(1e-4, 1e2, n)  # rad² next to m²
