@@ -25,6 +25,9 @@
    tree's reference preset, run by that tree's own code in a subprocess right after this
    tree's runs, on the same seeds and data. Both printed beside the goal (≤ 1) with the
    load average.
+6. Issue 12's navigation bias states: CPU time of one dense-loop run of ``NavBiasSlam``
+   around the consistent AEKF against the AEKF alone, with the bias regression by
+   Cholesky solve and by the pseudo-inverse it replaced (``--skip-nav-bias`` skips it).
 
 BLAS is limited to one thread (the filters' small matrices only lose from threads on a
 shared 2-core machine); ``--blas-threads`` changes that for the scaling part.
@@ -382,6 +385,9 @@ def main(argv=None) -> int:
     p.add_argument("--steps", type=int, default=20, help="timed scans per size (median reported)")
     p.add_argument("--skip-fastslam", action="store_true")
     p.add_argument("--skip-isam2", action="store_true")
+    p.add_argument(
+        "--skip-nav-bias", action="store_true", help="skip the navigation-bias-state timing"
+    )
     p.add_argument("--blas-threads", type=int, default=1)
     p.add_argument("--submap-length", type=float, default=5000.0, help="m of survey line")
     p.add_argument("--submap-spacing", type=float, default=5.0, help="m between landmarks")
@@ -422,6 +428,8 @@ def main(argv=None) -> int:
             ]
             / float(np.mean(ref_cpu)),
         }
+    if not args.skip_nav_bias:
+        result["nav_bias"] = _nav_bias_times(1)
     oct_ = _octave_bailey(args.bailey_dir)
     if "time_s" in oct_:
         oct_["ratio_over_aekf"] = (
@@ -475,6 +483,17 @@ def main(argv=None) -> int:
                 f"{ag['ratio_consistent_over_against_reference_cpu']:.2f}x CPU "
                 f"(goal <= {d['goal_consistent_over_reference']:.1f}; load average {la:.1f})"
             )
+    if "nav_bias" in result:
+        nbr = result["nav_bias"]
+        c = nbr["cpu_s_mean"]
+        print(
+            f"  NavBiasSlam (consistent AEKF + 9 navigation bias states), one dense-loop run: "
+            f"{c['nav_bias']:.3f} s CPU = {nbr['ratio_nav_bias_over_plain']:.2f}x the AEKF alone "
+            f"({c['plain']:.3f} s); with the pseudo-inverse regression it replaced "
+            f"{c['nav_bias_pinv']:.3f} s = {nbr['ratio_nav_bias_pinv_over_plain']:.2f}x; "
+            f"largest difference of the two paths' final bias / pose "
+            f"{nbr['max_abs_diff_solve_vs_pinv']:.1e}"
+        )
     ob = result["octave_bailey_ekfslam_v1"]
     if "time_s" in ob:
         print(
