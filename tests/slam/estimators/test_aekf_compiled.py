@@ -289,3 +289,31 @@ def test_dense_loop_equals_numpy_formulation_and_repeats_bit_identically(monkeyp
     assert np.array_equal(a[3], c[3])  # associations, scan by scan
     for u, v in zip(a[:3], c[:3], strict=True):
         _close(u, v, rtol=1e-11)
+
+
+def test_fej_linearization_state_kept_between_scans_is_the_definition():
+    """The FEJ linearization state the filter keeps between scans equals its definition,
+    ``[current pose, first landmark estimates]``, after every scan of a run that adds,
+    removes (a miss footprint wider than the sensor) and may fuse landmarks."""
+    spec = get_experiment("dense-loop")
+    ss = np.random.SeedSequence(2)
+    run = simulate_run(
+        spec.map.landmarks, spec.map.waypoints, spec.sim, np.random.default_rng(ss.spawn(2)[0])
+    )
+    f = AEKFSlam(
+        preset="consistent",
+        provisional_misses=3,
+        max_misses=2,
+        max_range_m=300.0,  # a footprint wider than the sensor's: unseen landmarks go
+        fov_half_angle_rad=np.pi,
+        merge_gate=9.0,
+        merge_every=5,
+    )
+    sizes = set()
+    for i in range(700):
+        f.predict(run.odometry(i))
+        f.update(run.observations(i))
+        want = np.concatenate([f.x[:3], f._lm_first.reshape(-1)])
+        assert np.array_equal(f._x_lin(), want)
+        sizes.add(f.n_landmarks)
+    assert f.n_removed + f.n_merged > 0 and len(sizes) > 3  # the set changed both ways
