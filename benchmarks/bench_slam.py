@@ -25,6 +25,9 @@
    tree's reference preset, run by that tree's own code in a subprocess right after this
    tree's runs, on the same seeds and data. Both printed beside the goal (≤ 1) with the
    load average.
+6. Issue 12's navigation bias states: CPU time of one dense-loop run of ``NavBiasSlam``
+   around the consistent AEKF against the AEKF alone, with the bias regression by
+   Cholesky solve and by the pseudo-inverse it replaced (``--skip-nav-bias`` skips it).
 
 BLAS is limited to one thread (the filters' small matrices only lose from threads on a
 shared 2-core machine); ``--blas-threads`` changes that for the scaling part.
@@ -176,6 +179,65 @@ def _octave_bailey(bailey_dir: str | None, timeout_s: float = 900.0) -> dict:
     return {"error": f"Octave failed (exit {r.returncode}): {r.stderr.strip()[-300:]}"}
 
 
+def _nav_bias_times(runs: int) -> dict:
+    """CPU seconds per dense-loop run (dt 0.025 s) of the consistent AEKF alone and inside
+    ``NavBiasSlam`` (issue 12's navigation bias states, datasheet-sized prior), the latter
+    with the bias regression by Cholesky solve (``_regression``, the default) and by the
+    pseudo-inverse it replaced (``_regression_pinv``), in this one run; and the largest
+    difference of the two paths' final bias estimate and pose."""
+    from threadpoolctl import threadpool_limits
+
+    import slam.estimators.nav_bias as nb
+    from slam.estimators.aekf import AEKFSlam
+    from slam.experiments import get_experiment
+    from slam.sim2d import simulate_run
+
+    spec = get_experiment("dense-loop")
+    model = nb.NavBiasModel(
+        hard_iron_std=np.radians(0.7),
+        soft_iron_std=np.radians(0.3),
+        drift_std=np.radians(0.5),
+        scale_factor_std=0.002,
+        misalignment_std=np.radians(0.1),
+        velocity_bias_std=0.001,
+    )
+    solve = nb._regression
+    cpu: dict = {"plain": [], "nav_bias": [], "nav_bias_pinv": []}
+    max_diff = 0.0
+    for r in range(runs):
+        ss = np.random.SeedSequence(r)
+        run = simulate_run(
+            spec.map.landmarks, spec.map.waypoints, spec.sim, np.random.default_rng(ss.spawn(2)[0])
+        )
+        odo = [run.odometry(i) for i in range(run.n_scans)]
+        obs = [run.observations(i) for i in range(run.n_scans)]
+        finals = {}
+        for name in cpu:
+            nb._regression = nb._regression_pinv if name == "nav_bias_pinv" else solve
+            try:
+                est = AEKFSlam(preset="consistent", provisional_misses=3)
+                if name != "plain":
+                    est = nb.NavBiasSlam(est, model)
+                c0 = time.process_time()
+                with threadpool_limits(limits=1, user_api="blas"):  # as run_once does
+                    for i in range(run.n_scans):
+                        est.predict(odo[i])
+                        est.update(obs[i])
+                cpu[name].append(time.process_time() - c0)
+            finally:
+                nb._regression = solve
+            if name != "plain":
+                finals[name] = np.concatenate([est.beta, est.inner.x[:3]])
+        max_diff = max(max_diff, float(np.abs(finals["nav_bias"] - finals["nav_bias_pinv"]).max()))
+    mean = {k: float(np.mean(v)) for k, v in cpu.items()}
+    return {
+        "cpu_s_mean": mean,
+        "ratio_nav_bias_over_plain": mean["nav_bias"] / mean["plain"],
+        "ratio_nav_bias_pinv_over_plain": mean["nav_bias_pinv"] / mean["plain"],
+        "max_abs_diff_solve_vs_pinv": max_diff,
+    }
+
+
 def _reference_cpu_in(tree: str, runs: int) -> list[float]:
     """CPU seconds per dense-loop run of the reference-preset AEKF as another checkout's
     own code runs it (a subprocess with ``tree`` first on the path; same seeds, so the same
@@ -323,6 +385,9 @@ def main(argv=None) -> int:
     p.add_argument("--steps", type=int, default=20, help="timed scans per size (median reported)")
     p.add_argument("--skip-fastslam", action="store_true")
     p.add_argument("--skip-isam2", action="store_true")
+    p.add_argument(
+        "--skip-nav-bias", action="store_true", help="skip the navigation-bias-state timing"
+    )
     p.add_argument("--blas-threads", type=int, default=1)
     p.add_argument("--submap-length", type=float, default=5000.0, help="m of survey line")
     p.add_argument("--submap-spacing", type=float, default=5.0, help="m between landmarks")
@@ -363,6 +428,8 @@ def main(argv=None) -> int:
             ]
             / float(np.mean(ref_cpu)),
         }
+    if not args.skip_nav_bias:
+        result["nav_bias"] = _nav_bias_times(1)
     oct_ = _octave_bailey(args.bailey_dir)
     if "time_s" in oct_:
         oct_["ratio_over_aekf"] = (
@@ -416,6 +483,17 @@ def main(argv=None) -> int:
                 f"{ag['ratio_consistent_over_against_reference_cpu']:.2f}x CPU "
                 f"(goal <= {d['goal_consistent_over_reference']:.1f}; load average {la:.1f})"
             )
+    if "nav_bias" in result:
+        nbr = result["nav_bias"]
+        c = nbr["cpu_s_mean"]
+        print(
+            f"  NavBiasSlam (consistent AEKF + 9 navigation bias states), one dense-loop run: "
+            f"{c['nav_bias']:.3f} s CPU = {nbr['ratio_nav_bias_over_plain']:.2f}x the AEKF alone "
+            f"({c['plain']:.3f} s); with the pseudo-inverse regression it replaced "
+            f"{c['nav_bias_pinv']:.3f} s = {nbr['ratio_nav_bias_pinv_over_plain']:.2f}x; "
+            f"largest difference of the two paths' final bias / pose "
+            f"{nbr['max_abs_diff_solve_vs_pinv']:.1e}"
+        )
     ob = result["octave_bailey_ekfslam_v1"]
     if "time_s" in ob:
         print(

@@ -816,6 +816,7 @@ class AEKFSlam:
         self.P = 0.5 * (P0 + P0.T)
         self._pose_prior = self.x[:3].copy()  # previous predicted pose (FEJ)
         self._lm_first = np.empty((0, 2))  # first estimates (FEJ)
+        self._xl_cache = self._xl_source = None  # FEJ linearization state (_x_lin)
         self.labels = np.empty(0, dtype=np.int64)  # label of the creating observation, -1 none
         self.ids = np.empty(0, dtype=np.int64)  # persistent landmark ids (0, 1, ... created)
         self.misses = np.empty(0, dtype=np.int64)
@@ -950,9 +951,18 @@ class AEKFSlam:
         return self.x.copy(), self.P.copy()
 
     def _x_lin(self):
+        """FEJ linearization state ``[current pose, first landmark estimates]`` (None for
+        standard Jacobians). Kept between scans: rebuilt when ``_lm_first`` is replaced
+        (augment, removal, fusion all assign a new array), else only its pose is written."""
         if self.config.jacobians != "fej":
             return None
-        return np.concatenate([self.x[:3], self._lm_first.reshape(-1)])
+        xl = self._xl_cache
+        if xl is None or self._xl_source is not self._lm_first:
+            xl = np.concatenate([self.x[:3], self._lm_first.reshape(-1)])
+            self._xl_cache, self._xl_source = xl, self._lm_first
+        else:
+            xl[:3] = self.x[:3]
+        return xl
 
     def _associate_known(self, labels):
         k = labels.size
@@ -1062,11 +1072,9 @@ class AEKFSlam:
         n = self.n_landmarks
         if (cfg.max_misses is None and cfg.provisional_misses is None) or n == 0:
             return assoc
-        seen = np.zeros(n, dtype=bool)
-        seen[assoc[assoc >= 0]] = True
-        drop = count_misses(
+        drop, n_drop = count_misses(
             self.x,
-            seen,
+            assoc,
             _NO_COMPATIBLE if compatible is None else compatible,
             self.hits,
             self.misses,
@@ -1075,7 +1083,7 @@ class AEKFSlam:
             -1 if cfg.max_misses is None else cfg.max_misses,
             -1 if cfg.provisional_misses is None else cfg.provisional_misses,
         )
-        if not drop.any():
+        if n_drop == 0:
             return assoc
         dropped = np.flatnonzero(drop)
         self.x, self.P = remove_landmarks(self.x, self.P, dropped)

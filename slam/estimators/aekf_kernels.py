@@ -339,11 +339,12 @@ def jcbb_outcome(scores, pairs, ambiguous, augment_gate):
 
 
 @numba.njit(cache=True)
-def count_misses(x, seen, compatible, hits, misses, r_max, b_max, max_misses, provisional_misses):
+def count_misses(x, assoc, compatible, hits, misses, r_max, b_max, max_misses, provisional_misses):
     """Update the miss counters of the landmarks of state ``x`` in place; returns the
-    (n,) bool mask of landmarks to remove.
+    (n,) bool mask of landmarks to remove and how many it flags.
 
-    A landmark ``seen`` (associated this scan) gets 0 misses; one inside the footprint
+    ``assoc`` (k,) is the landmark index each observation of the scan went to (-1: none).
+    A landmark seen (associated this scan) gets 0 misses; one inside the footprint
     (range ``< r_max`` m and ``|bearing| < b_max`` rad from the pose ``x[:3]``) that is not
     seen and not excused gets one more. ``compatible`` (m <= n,) excuses the first m
     landmarks (some observation was within the augment gate) unless, with
@@ -351,7 +352,12 @@ def count_misses(x, seen, compatible, hits, misses, r_max, b_max, max_misses, pr
     ``misses >= max_misses`` (when ``>= 0``) or provisional with ``misses >=
     provisional_misses`` (when ``>= 0``)."""
     n = misses.size
+    seen = np.zeros(n, np.bool_)
+    for j in range(assoc.size):
+        if assoc[j] >= 0:
+            seen[assoc[j]] = True
     drop = np.zeros(n, np.bool_)
+    n_drop = 0
     px, py, phi = x[0], x[1], x[2]
     for i in range(n):
         provisional = hits[i] < 2
@@ -367,8 +373,9 @@ def count_misses(x, seen, compatible, hits, misses, r_max, b_max, max_misses, pr
                     excused = compatible[i] and not (provisional_misses >= 0 and provisional)
                 if b < b_max and not excused:
                     misses[i] += 1
-        if max_misses >= 0 and misses[i] >= max_misses:
+        if (max_misses >= 0 and misses[i] >= max_misses) or (
+            provisional_misses >= 0 and provisional and misses[i] >= provisional_misses
+        ):
             drop[i] = True
-        if provisional_misses >= 0 and provisional and misses[i] >= provisional_misses:
-            drop[i] = True
-    return drop
+            n_drop += 1
+    return drop, n_drop

@@ -25,8 +25,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.stats import chi2
 
-from slam.estimators.rb_kernels import joint_nis, pair_covariance
-from slam.estimators.rb_model import association_scores
+from slam.estimators.rb_kernels import jcbb_easy, joint_nis, pair_covariance
 
 _PAIR = np.arange(2, dtype=np.intp)
 
@@ -116,25 +115,24 @@ def jcbb(
     k = z.shape[0]
     R = np.asarray(R, dtype=float)
     R = np.broadcast_to(R, (k, 2, 2)) if R.shape == (2, 2) else R
-    gate = chi2_limits(confidence, 1)[0] if individual_gate is None else float(individual_gate)
-    nis, _ = association_scores(x, P, z, R, ml=False)
-    pairs = np.full(k, -1, dtype=np.intp)
-    obs, lms = np.nonzero(nis < gate)
-    if obs.size == 0:
-        return JCBBResult(pairs, 0.0, nis, 0, True)
     limits = chi2_limits(confidence, max(k, 1))
-    if obs.size == 1 and gate <= limits[0]:
-        # one candidate pair (most scans): its joint test is its individual test, passed
-        pairs[obs] = lms
-        return JCBBResult(pairs, float(nis[obs[0], lms[0]]), nis, 1, True)
+    gate = limits[0] if individual_gate is None else float(individual_gate)
+    # most scans (no candidate, one, or one each and jointly compatible) are decided by
+    # one compiled call; the rest go to the branch and bound
+    status, pairs, nis, d2, nodes = jcbb_easy(
+        np.ascontiguousarray(x),
+        np.ascontiguousarray(P),
+        np.ascontiguousarray(z),
+        np.ascontiguousarray(R),
+        gate,
+        limits,
+    )
+    if status == 1:
+        return JCBBResult(pairs, d2, nis, nodes, True)
+    if status == -1:
+        raise np.linalg.LinAlgError("joint covariance of the hypothesis is not positive definite")
+    obs, lms = np.nonzero(nis < gate)
     nu, S = _pair_covariance(x, P, z, R, obs, lms)
-    if len(set(obs.tolist())) == obs.size and len(set(lms.tolist())) == lms.size:
-        # one candidate per observation, each landmark once (most scans): if they are
-        # jointly compatible, that hypothesis is the only one of the largest size
-        d2 = _joint_nis(S, nu, np.arange(nu.size))
-        if d2 < limits[obs.size - 1]:
-            pairs[obs] = lms
-            return JCBBResult(pairs, d2, nis, 1, True)
     pairs, ambiguous, d2, nodes, complete = jcbb_search(
         obs, lms, nis[obs, lms], nu, S, k, limits, max_nodes, reject_ambiguous
     )

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
+from scipy.linalg import lapack as _lapack
 
 from slam.types import Odometry, wrap_angle
 
@@ -106,15 +107,46 @@ def _basis(psi: float) -> np.ndarray:
     return np.array([math.sin(psi), math.cos(psi), math.sin(2 * psi), math.cos(2 * psi)])
 
 
-def _rot(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s], [s, c]])
+#: LAPACK dpocon's estimate of the reciprocal 1-norm condition number of the correlation
+#: matrix above which :func:`_regression` solves with its Cholesky factor: then its
+#: 2-norm condition number (<= the 1-norm one for a symmetric matrix; the estimate is
+#: within a small factor of it) is far below the 1e10 at which the pseudo-inverse
+#: (:func:`_regression_pinv`, rcond 1e-10) would drop an eigenvalue, so both compute
+#: ``C P⁻¹``. Below it (never seen in the runs) the pseudo-inverse is used as before.
+_RCOND_SOLVE = 1e-8
 
 
 def _regression(C: np.ndarray, P: np.ndarray) -> np.ndarray:
-    """``C P^+`` with the pseudo-inverse of the correlation form of ``P`` (variances of
-    metres and radians differ by orders of magnitude; exactly known components, e.g. the
-    start pose, get zero weight)."""
+    """``C P⁻¹`` over the components of ``P`` with a variance > 0 (exactly known ones,
+    e.g. the start pose, have zero rows in a PSD ``P`` and get zero weight, as in the
+    pseudo-inverse): a Cholesky solve with the correlation form of ``P`` (variances of
+    metres and radians differ by orders of magnitude), O(N³/3) against the pseudo-inverse's
+    eigendecomposition; :func:`_regression_pinv` when ``P`` is ill-conditioned
+    (:data:`_RCOND_SOLVE`) or not positive definite on those components."""
+    d = np.sqrt(np.clip(np.diagonal(P), 0.0, None))
+    live = np.flatnonzero(d > 0)
+    B = np.zeros_like(C)
+    if live.size == 0:
+        return B
+    dl = d[live]
+    Pl = P if live.size == d.size else P[np.ix_(live, live)]
+    Pn = Pl / dl / dl[:, None]
+    Pn = np.asfortranarray(0.5 * (Pn + Pn.T))  # LAPACK's order: no copies in the calls
+    anorm = float(np.abs(Pn).sum(axis=0).max())
+    L, info = _lapack.dpotrf(Pn, lower=1, clean=0, overwrite_a=1)
+    if info == 0:
+        rcond, info = _lapack.dpocon(L, anorm, uplo="L")
+        if info == 0 and rcond >= _RCOND_SOLVE:
+            X, info = _lapack.dpotrs(L, np.asfortranarray((C[:, live] / dl).T), lower=1)
+            if info == 0:
+                B[:, live] = X.T / dl
+                return B
+    return _regression_pinv(C, P)
+
+
+def _regression_pinv(C: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """``C P^+`` with the pseudo-inverse of the correlation form of ``P`` (exactly known
+    components get zero weight; eigenvalues below 1e-10 of the largest are dropped)."""
     d = np.sqrt(np.clip(np.diagonal(P), 0.0, None))
     d = np.where(d > 0, d, 1.0)
     Pn = P / np.outer(d, d)
@@ -168,46 +200,47 @@ class NavBiasSlam:
         mdl = self.model
         a = math.exp(-dt / mdl.drift_tau_s)
         q_g = mdl.drift_std**2 * (1.0 - a * a)
-        psi0, psi1 = self._psi, self._psi + float(u[2])
-        dbasis = _basis(psi1) - _basis(psi0)
-        d = u[:2]
-        rb = _rot(0.5 * float(u[2])) * dt
+        dx, dy, dphi = float(u[0]), float(u[1]), float(u[2])
+        psi0, psi1 = self._psi, self._psi + dphi
+        ch, sh = math.cos(0.5 * dphi) * dt, math.sin(0.5 * dphi) * dt
         # U = d u_true / d beta (3, 9)
         U = np.zeros((3, _NB))
-        U[:2, _S] = -d
-        U[:2, _M] = [d[1], -d[0]]
-        U[:2, _BV] = -rb
-        U[2, _K] = -dbasis
+        U[0, _S], U[1, _S] = -dx, -dy
+        U[0, _M], U[1, _M] = dy, -dx
+        U[0, 7], U[0, 8], U[1, 7], U[1, 8] = -ch, sh, -sh, -ch
+        U[2, _K] = _basis(psi0) - _basis(psi1)
         U[2, _G] = 1.0 - a
-        b = self.beta
-        u_true = u + U @ b
+        u_true = u + U @ self.beta
         x = self.inner.x
         phi = float(x[2])
-        G = np.eye(3)
-        G[:2, :2] = _rot(phi)
         c, s = math.cos(phi), math.sin(phi)
         xn = x[0] + c * u_true[0] - s * u_true[1]
         yn = x[1] + s * u_true[0] + c * u_true[1]
         ref = self._pose_prior if self.inner.config.jacobians == "fej" else x[:3]
         F = np.array([[1.0, 0.0, -(yn - ref[1])], [0.0, 1.0, xn - ref[0]], [0.0, 0.0, 1.0]])
-        A = G @ U
+        A = U.copy()  # G U, G the rotation by phi (pose rows)
+        A[0], A[1] = c * U[0] - s * U[1], s * U[0] + c * U[1]
         Cv, Cm = self.C[:, :3].copy(), self.C[:, 3:]
-        self.inner.predict(Odometry(u_true, odometry.cov, odometry.t))
+        if hasattr(self.inner, "predict_arrays"):  # validates u_true and Q itself
+            self.inner.predict_arrays(u_true, odometry.cov)
+        else:
+            self.inner.predict(Odometry(u_true, odometry.cov, odometry.t))
         P = self.inner.P
         # joint terms the inner predict does not know: pose' = F pose + A beta - e_phi w
+        AP = A @ self.P_bb
         dPvv = A @ Cv @ F.T
-        P[:3, :3] += dPvv + dPvv.T + A @ self.P_bb @ A.T
+        P[:3, :3] += dPvv + dPvv.T + AP @ A.T
         P[2, 2] += q_g
         if P.shape[0] > 3:
             dPvm = A @ Cm
             P[:3, 3:] += dPvm
             P[3:, :3] += dPvm.T
-        D = np.ones(_NB)
-        D[_G] = a
-        self.C[:, :3] = D[:, None] * (Cv @ F.T + self.P_bb @ A.T)
+        # beta' = D beta (+ w in g): D = 1 except a for the drift g
+        self.C[:, :3] = Cv @ F.T + AP.T
+        self.C[_G] *= a
         self.C[_G, 2] -= q_g
-        self.C[:, 3:] = D[:, None] * Cm
-        self.P_bb = D[:, None] * self.P_bb * D[None, :]
+        self.P_bb[_G] *= a
+        self.P_bb[:, _G] *= a
         self.P_bb[_G, _G] += q_g
         self.beta[_G] *= a
         self._psi = psi1
@@ -231,6 +264,19 @@ class NavBiasSlam:
         covariance before the update."""
         inner = self.inner
         ids1 = np.asarray(inner.ids)
+        n0 = ids0.size
+        if ids1.size >= n0 and np.array_equal(ids1[:n0], ids0):
+            # no landmark removed (most scans; new ones come last): the old state is the
+            # leading block of the new one
+            B = _regression(self.C, P0)
+            dm = inner.x[: x0.size] - x0
+            dm[2] = wrap_angle(dm[2])
+            P_r = self.P_bb - B @ self.C.T
+            self.beta = self.beta + B @ dm
+            self.C = B @ inner.P[: x0.size]
+            P_bb = P_r + self.C[:, : x0.size] @ B.T
+            self.P_bb = 0.5 * (P_bb + P_bb.T)
+            return
         pos1 = {int(i): j for j, i in enumerate(ids1)}
         kept_old = [j for j, i in enumerate(ids0) if int(i) in pos1]
         old_cols = np.r_[0:3, [3 + 2 * j + o for j in kept_old for o in (0, 1)]].astype(int)

@@ -11,7 +11,14 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["joint_nis", "landmark_jacobian", "nis_scores", "pair_covariance", "wrap_angle"]
+__all__ = [
+    "jcbb_easy",
+    "joint_nis",
+    "landmark_jacobian",
+    "nis_scores",
+    "pair_covariance",
+    "wrap_angle",
+]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -160,3 +167,55 @@ def joint_nis(S, nu, rows):
         w[i] = s / L[i, i]
         total += w[i] * w[i]
     return total
+
+
+@numba.njit(cache=True)
+def jcbb_easy(x, P, z, R, gate, limits):
+    """The scans JCBB decides without a search, in one compiled call: individual NIS of
+    every observation ``z`` (k, 2) against every landmark (:func:`nis_scores`), candidate
+    pairs below ``gate``, and then — no candidate; one candidate with ``gate <=
+    limits[0]``; or one candidate per observation, each landmark once, jointly compatible
+    (``nuᵀ S⁻¹ nu < limits[c - 1]`` for c pairs) — the decided hypothesis.
+
+    Returns ``(status, pairs (k,), nis (k, n), joint NIS, nodes)`` (nodes 0 without a
+    candidate, else 1, as the search counts them); ``status`` 1 decided, 0 the branch and
+    bound is needed, -1 the joint covariance of the one-each hypothesis is not positive
+    definite (``pairs`` all -1 unless decided)."""
+    k = z.shape[0]
+    n = (x.size - 3) // 2
+    pairs = np.full(k, -1, np.intp)
+    if n == 0 or k == 0:
+        return 1, pairs, np.empty((k, n)), 0.0, 0
+    nis, _ = nis_scores(x, P, z, R, x, False)
+    c = 0
+    for j in range(k):
+        for i in range(n):
+            if nis[j, i] < gate:
+                c += 1
+    if c == 0:
+        return 1, pairs, nis, 0.0, 0
+    obs = np.empty(c, np.intp)
+    lms = np.empty(c, np.intp)
+    a = 0
+    for j in range(k):  # row-major, as np.nonzero orders them
+        for i in range(n):
+            if nis[j, i] < gate:
+                obs[a] = j
+                lms[a] = i
+                a += 1
+    if c == 1 and gate <= limits[0]:
+        pairs[obs[0]] = lms[0]
+        return 1, pairs, nis, nis[obs[0], lms[0]], 1
+    for a in range(c):
+        for b in range(a):
+            if obs[a] == obs[b] or lms[a] == lms[b]:
+                return 0, pairs, nis, 0.0, 1
+    nu, S = pair_covariance(x, P, z, R, obs, lms)
+    d2 = joint_nis(S, nu, np.arange(2 * c))
+    if d2 < 0.0:
+        return -1, pairs, nis, 0.0, 1
+    if not d2 < limits[c - 1]:
+        return 0, pairs, nis, 0.0, 1
+    for a in range(c):
+        pairs[obs[a]] = lms[a]
+    return 1, pairs, nis, d2, 1

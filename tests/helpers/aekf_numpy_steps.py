@@ -140,3 +140,28 @@ def jcbb_outcome(scores, pairs, ambiguous, augment_gate):
     m = pairs >= 0
     nis[m] = scores[np.flatnonzero(m), pairs[m]]
     return new, nis, (scores < augment_gate).any(axis=0)
+
+
+def jcbb_easy(x, P, z, R, gate, limits):
+    """The steps ``slam.estimators.jcbb.jcbb`` took before its branch and bound (the
+    Python code ``rb_kernels.jcbb_easy`` replaced)."""
+    k, n = z.shape[0], (x.size - 3) // 2
+    pairs = np.full(k, -1, dtype=np.intp)
+    if n == 0 or k == 0:
+        return 1, pairs, np.empty((k, n)), 0.0, 0
+    nis, _ = nis_scores(x, P, z, R, x, False)
+    obs, lms = np.nonzero(nis < gate)
+    if obs.size == 0:
+        return 1, pairs, nis, 0.0, 0
+    if obs.size == 1 and gate <= limits[0]:
+        pairs[obs] = lms
+        return 1, pairs, nis, float(nis[obs[0], lms[0]]), 1
+    if len(set(obs.tolist())) == obs.size and len(set(lms.tolist())) == lms.size:
+        nu, S = pair_covariance(x, P, z, R, obs, lms)
+        d2 = joint_nis(S, nu, np.arange(nu.size))
+        if d2 < 0:
+            return -1, pairs, nis, 0.0, 1
+        if d2 < limits[obs.size - 1]:
+            pairs[obs] = lms
+            return 1, pairs, nis, d2, 1
+    return 0, pairs, nis, 0.0, 1

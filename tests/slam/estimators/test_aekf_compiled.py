@@ -144,6 +144,57 @@ def test_jcbb_outcome_equals_numpy(rng):
             np.testing.assert_array_equal(g, w)
 
 
+def test_jcbb_easy_decides_as_the_python_steps(rng):
+    """The compiled pre-search part of JCBB against the Python steps it replaced, on
+    scans observing the state's own landmarks (noise of 0.5–3 σ, some pairs of landmarks
+    close together so observations have several candidates): same status (decided /
+    search / not positive definite), same pairs, same scores and joint NIS; every status
+    occurs."""
+    from slam.estimators.jcbb import chi2_limits
+    from slam.estimators.rb_model import observe
+
+    statuses = set()
+    for _ in range(300):
+        n = int(rng.integers(0, 12))
+        x, P = _state(rng, n)
+        P *= 0.05
+        if n >= 2 and rng.random() < 0.4:  # a near twin of landmark 0
+            x[5:7] = x[3:5] + rng.normal(0, 0.5, 2)
+        k = int(rng.integers(0, min(n, 4) + 1)) if n else int(rng.integers(0, 3))
+        idx = rng.choice(max(n, 1), k, replace=False) if n else np.zeros(0, np.intp)
+        if n:
+            zhat, _, _ = observe(x, idx)
+            z = zhat + rng.normal(0, 1, (k, 2)) * rng.uniform(0.5, 3.0) * [0.3, 0.02]
+        else:
+            z = np.column_stack([rng.uniform(2, 30, k), rng.uniform(-3, 3, k)])
+        z[:, 0] = np.abs(z[:, 0]) + 0.1
+        R = np.broadcast_to(np.diag([0.3**2, 0.02**2]), (k, 2, 2)).copy()
+        limits = chi2_limits(0.99, max(k, 1))
+        got = RK.jcbb_easy(x, P, z, R, limits[0], limits)
+        want = ref.jcbb_easy(x, P, z, R, limits[0], limits)
+        statuses.add(got[0])
+        assert got[0] == want[0]
+        np.testing.assert_array_equal(got[1], want[1])
+        np.testing.assert_allclose(got[2], want[2], rtol=1e-10, atol=1e-12)
+        assert got[3] == pytest.approx(want[3], rel=1e-9, abs=1e-12)
+        assert got[4] == want[4]
+    assert statuses >= {0, 1}
+    # one candidate each whose joint covariance is indefinite (cross-covariance of the two
+    # landmarks beyond their variances): -1 from both, and jcbb raises as it did
+    x = np.array([0.0, 0.0, 0.0, 10.0, 0.0, 0.0, 10.0])
+    P = np.zeros((7, 7))
+    P[3:, 3:] = np.eye(4)
+    P[3, 6] = P[6, 3] = 5.0
+    P[4, 5] = P[5, 4] = -5.0
+    z = np.array([[10.0, 0.0], [10.0, np.pi / 2]])
+    R = np.broadcast_to(np.diag([0.01, 1e-4]), (2, 2, 2)).copy()
+    limits = chi2_limits(0.99, 2)
+    assert RK.jcbb_easy(x, P, z, R, limits[0], limits)[0] == -1
+    assert ref.jcbb_easy(x, P, z, R, limits[0], limits)[0] == -1
+    with pytest.raises(np.linalg.LinAlgError, match="not positive definite"):
+        jcbb_mod.jcbb(x, P, z, R)
+
+
 def _eig_rule_rejects(C, tol=1e-9):
     """The replaced rule: symmetric part's smallest eigenvalue below -tol * scale."""
     scale = max(1.0, float(np.abs(C).max()))
@@ -229,6 +280,7 @@ def test_dense_loop_equals_numpy_formulation_and_repeats_bit_identically(monkeyp
         (aekf_mod, "surely_linear"),
         (aekf_mod, "jcbb_outcome"),
         (rb_mod, "nis_scores"),
+        (jcbb_mod, "jcbb_easy"),
         (jcbb_mod, "pair_covariance"),
         (jcbb_mod, "joint_nis"),
     ]:
@@ -237,3 +289,31 @@ def test_dense_loop_equals_numpy_formulation_and_repeats_bit_identically(monkeyp
     assert np.array_equal(a[3], c[3])  # associations, scan by scan
     for u, v in zip(a[:3], c[:3], strict=True):
         _close(u, v, rtol=1e-11)
+
+
+def test_fej_linearization_state_kept_between_scans_is_the_definition():
+    """The FEJ linearization state the filter keeps between scans equals its definition,
+    ``[current pose, first landmark estimates]``, after every scan of a run that adds,
+    removes (a miss footprint wider than the sensor) and may fuse landmarks."""
+    spec = get_experiment("dense-loop")
+    ss = np.random.SeedSequence(2)
+    run = simulate_run(
+        spec.map.landmarks, spec.map.waypoints, spec.sim, np.random.default_rng(ss.spawn(2)[0])
+    )
+    f = AEKFSlam(
+        preset="consistent",
+        provisional_misses=3,
+        max_misses=2,
+        max_range_m=300.0,  # a footprint wider than the sensor's: unseen landmarks go
+        fov_half_angle_rad=np.pi,
+        merge_gate=9.0,
+        merge_every=5,
+    )
+    sizes = set()
+    for i in range(700):
+        f.predict(run.odometry(i))
+        f.update(run.observations(i))
+        want = np.concatenate([f.x[:3], f._lm_first.reshape(-1)])
+        assert np.array_equal(f._x_lin(), want)
+        sizes.add(f.n_landmarks)
+    assert f.n_removed + f.n_merged > 0 and len(sizes) > 3  # the set changed both ways

@@ -45,7 +45,9 @@ def test_count_misses_equals_numpy_reference(rng, max_m, prov_m):
     for _ in range(200):
         n = int(rng.integers(1, 40))
         x = np.concatenate([rng.normal(0, 5, 2), [rng.uniform(-4, 4)], rng.normal(0, 25, 2 * n)])
-        seen = rng.random(n) < 0.2
+        assoc = rng.integers(-1, n, int(rng.integers(0, 5)))  # the scan's associations
+        seen = np.zeros(n, dtype=bool)
+        seen[assoc[assoc >= 0]] = True
         m_c = int(rng.integers(0, n + 1))
         compatible = rng.random(m_c) < 0.3 if rng.random() < 0.8 else None
         hits = rng.integers(1, 4, n)
@@ -55,9 +57,9 @@ def test_count_misses_equals_numpy_reference(rng, max_m, prov_m):
             x, seen, compatible, hits, misses, *args, max_m, prov_m
         )
         got = misses.copy()
-        drop = count_misses(
+        drop, n_drop = count_misses(
             x,
-            seen,
+            assoc,
             np.zeros(0, bool) if compatible is None else compatible,
             hits,
             got,
@@ -67,6 +69,7 @@ def test_count_misses_equals_numpy_reference(rng, max_m, prov_m):
         )
         assert np.array_equal(got, ref_misses)
         assert np.array_equal(drop, ref_drop)
+        assert n_drop == ref_drop.sum()
 
 
 def test_pair_covariance_equals_full_jacobian_product(rng):

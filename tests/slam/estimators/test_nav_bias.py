@@ -267,3 +267,61 @@ def test_odometry_back_in_time_is_refused():
     est = NavBiasSlam(AEKFSlam(x0=np.zeros(3)), MODEL, t0=5.0)
     with pytest.raises(ValueError, match=r"odometry\.t"):
         est.predict(Odometry(np.zeros(3), np.eye(3) * 1e-4, 4.0))
+
+
+def _spd(rng, n, zero=0, cond=None):
+    """A random SPD matrix with ``zero`` exactly known leading components (zero rows)."""
+    A = rng.standard_normal((n, n + 3))
+    P = A @ A.T
+    if cond is not None:  # eigenvalues spread over ``cond``
+        _, V = np.linalg.eigh(P)
+        P = (V * np.geomspace(1.0, 1.0 / cond, n)) @ V.T
+        P = 0.5 * (P + P.T)
+    scale = np.geomspace(1e-4, 1e2, n)  # rad² next to m²
+    P = P * np.sqrt(np.outer(scale, scale))
+    P[:zero, :] = 0.0
+    P[:, :zero] = 0.0
+    return P
+
+
+def test_regression_solve_equals_the_pseudo_inverse(rng):
+    """The Cholesky regression against the pseudo-inverse path it replaced (1e-9 of the
+    result's magnitude), with exactly known components (zero weight in both) and without;
+    an ill-conditioned correlation matrix (where the pseudo-inverse drops eigenvalues)
+    takes the pseudo-inverse path itself."""
+    from slam.estimators.nav_bias import _regression, _regression_pinv
+
+    for _ in range(50):
+        n = int(rng.integers(3, 80))
+        zero = int(rng.integers(0, 4)) if rng.random() < 0.5 else 0
+        P = _spd(rng, n, min(zero, n - 1))
+        C = rng.standard_normal((NB, n)) * 1e-3
+        C[:, :zero] = 0.0
+        got, want = _regression(C, P), _regression_pinv(C, P)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.abs(want).max())
+        assert np.all(got[:, :zero] == 0.0)
+    P = _spd(rng, 20, cond=1e13)
+    C = rng.standard_normal((NB, 20))
+    assert np.array_equal(_regression(C, P), _regression_pinv(C, P))
+
+
+def test_run_with_the_solve_equals_the_run_with_the_pseudo_inverse(monkeypatch):
+    """A whole loop stream (consistent inner filter, its own association) through the
+    wrapper with the Cholesky regression and with the pseudo-inverse one: the same bias
+    estimate, covariance and landmark map to 1e-9."""
+    import slam.estimators.nav_bias as nb
+
+    events, _, _ = _loop_stream(5, np.radians([1.2, -0.8, 0.3, 0.0]), n_loops=2)
+    x0 = np.array([40.0, 0.0, math.pi / 2])
+
+    def drive():
+        est = NavBiasSlam(AEKFSlam(preset="consistent", x0=x0), MODEL)
+        _run(est, events)
+        return est.beta, est.P_bb, est.C, est.inner.x, est.inner.P
+
+    a = drive()
+    monkeypatch.setattr(nb, "_regression", nb._regression_pinv)
+    b = drive()
+    for u, v in zip(a, b, strict=True):
+        assert u.shape == v.shape
+        np.testing.assert_allclose(u, v, rtol=0, atol=1e-9 * max(1.0, np.abs(v).max()))
