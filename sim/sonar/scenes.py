@@ -52,6 +52,22 @@ class SonarScene:
         )
         return int(self.model.jnt_qposadr[self.model.body_jntadr[b]])
 
+    def sidescan(self, cfg, site: str = "sss", **kwargs):
+        """A ``SideScanSonar`` with config ``cfg`` mounted at ``site`` of this scene
+        (``kwargs``: e.g. ``backend``)."""
+        from sim.sonar.sidescan import SideScanSonar  # the scene module stays import-light
+
+        return SideScanSonar(
+            cfg,
+            self.model,
+            self.data,
+            self.sites[site],
+            self.geom_object_id,
+            self.geom_reflectivity,
+            self.water,
+            **kwargs,
+        )
+
     def move_vehicle(self, x: float, y: float | None = None, z: float | None = None) -> None:
         """Place the vehicle (world m) and update kinematics (``mj_kinematics``)."""
         a = self.qpos_adr(self.vehicle_body)

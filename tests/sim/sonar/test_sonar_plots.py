@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.sonar import ForwardLookingSonar, SideScanSonar, SideScanWaterfall, preset
+from sim.sonar import ForwardLookingSonar, SideScanWaterfall, preset
 from sim.sonar.plots import plot_fls, plot_waterfall
 from sim.sonar.scenes import SceneObject, build_scene
 
@@ -15,15 +15,7 @@ def test_plots_write_png(tmp_path):
         objects=[SceneObject("box", (0.0, 12.0, 1.0), (1.0, 1.0, 1.0))],
         seabed_cells=10,
     )
-    son = SideScanSonar(
-        preset("deepeye680d", max_range=30.0, samples_per_side=300),
-        sc.model,
-        sc.data,
-        sc.sites["sss"],
-        sc.geom_object_id,
-        sc.geom_reflectivity,
-        sc.water,
-    )
+    son = sc.sidescan(preset("deepeye680d", max_range=30.0, samples_per_side=300))
     rng = np.random.default_rng(0)
     pings = []
     for x in np.arange(-2, 2, 0.25):

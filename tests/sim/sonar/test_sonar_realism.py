@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import special, stats
 
-from sim.sonar import ForwardLookingSonar, SideScanSonar, preset
+from sim.sonar import ForwardLookingSonar, preset
 from sim.sonar.effects import RealismConfig, all_off
 from sim.sonar.glint import add_azimuth_sidelobes, azimuth_sidelobe_kernel
 from sim.sonar.receiver import ambient_noise_db, digitise, volume_reverberation
@@ -21,16 +21,7 @@ MU = 10 ** (-27 / 10)
 
 
 def _sss(scene, name="deepeye680d_realistic", **over):
-    cfg = preset(name, max_range=40.0, **over)
-    return SideScanSonar(
-        cfg,
-        scene.model,
-        scene.data,
-        scene.sites["sss"],
-        scene.geom_object_id,
-        scene.geom_reflectivity,
-        scene.water,
-    )
+    return scene.sidescan(preset(name, max_range=40.0, **over))
 
 
 def _survey(scene, son, n, step=0.107, seed=1):

@@ -25,17 +25,7 @@ QUIET = dict(
 
 
 def _sonar(scene, backend="embree", site="sss", **over):
-    cfg = preset("deepeye680d", **over)
-    return SideScanSonar(
-        cfg,
-        scene.model,
-        scene.data,
-        scene.sites[site],
-        scene.geom_object_id,
-        scene.geom_reflectivity,
-        scene.water,
-        backend=backend,
-    )
+    return scene.sidescan(preset("deepeye680d", **over), site, backend=backend)
 
 
 # every realism effect switched off must leave the analytic checks below intact

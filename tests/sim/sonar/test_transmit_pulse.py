@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.sonar import SideScanSonar, preset
+from sim.sonar import preset
 from sim.sonar.effects import RealismConfig
 from sim.sonar.transmit_pulse import (
     TransmitPulse,
@@ -21,15 +21,8 @@ DR = 40.0 / 1000  # bin width of the 40-m, 1000-sample sonar below, m
 
 
 def _sss(scene, **over):
-    cfg = preset("deepeye680d_realistic", max_range=40.0, samples_per_side=1000, **over)
-    return SideScanSonar(
-        cfg,
-        scene.model,
-        scene.data,
-        scene.sites["sss"],
-        scene.geom_object_id,
-        scene.geom_reflectivity,
-        scene.water,
+    return scene.sidescan(
+        preset("deepeye680d_realistic", max_range=40.0, samples_per_side=1000, **over)
     )
 
 
