@@ -72,9 +72,7 @@ class SideScanChain:
             if rz.volume_sv_db is not None
             else None
         )
-        self.tvg = tvg_gain(
-            ranges, mount.alpha_db_m, ac.tvg, 4.0 if rz.tvg_exponent is None else rz.tvg_exponent
-        )
+        self.tvg = tvg_gain(ranges, mount.alpha_db_m, ac.tvg, rz.tvg_n)
         self.transmit = TransmitPulse(rz, ranges)
 
     def _beam_ratio(self, altitude, depth):

@@ -11,25 +11,15 @@ this boundary. Flat scalar fields so that scenario files can override any of the
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Literal
 
 from sim.sonar.transmit_pulse import TransmitPulseFields
+from sim.sonar.validate import check_optional_range, check_range
 
 SeabedModel = Literal["lambert", "sediment"]
 TvgReference = Literal["transducer", "bottom"]
 SEDIMENT_NAMES = ("mud", "sand", "gravel", "rock")
-
-
-def _rng(name: str, v: float, lo: float, hi: float) -> None:
-    if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
-        raise ValueError(f"{name} = {v!r} is outside the allowed range [{lo}, {hi}]")
-
-
-def _opt(name: str, v: float | None, lo: float, hi: float) -> None:
-    if v is not None:
-        _rng(name, v, lo, hi)
 
 
 @dataclass(frozen=True)
@@ -124,6 +114,11 @@ class RealismConfig(TransmitPulseFields):
     corner_width_deg: float = 6.0
     fls_azimuth_sidelobe_db: float | None = -28.0
 
+    @property
+    def tvg_n(self) -> float:
+        """The TVG's spreading exponent n of r^n: ``tvg_exponent``, or 4 (r⁴) when None."""
+        return 4.0 if self.tvg_exponent is None else self.tvg_exponent
+
     def __post_init__(self) -> None:
         super().__post_init__()  # the transmit-pulse fields (sim.sonar.transmit_pulse)
         if self.seabed_model not in ("lambert", "sediment"):
@@ -134,44 +129,44 @@ class RealismConfig(TransmitPulseFields):
             raise ValueError(f"sediment_seed = {self.sediment_seed!r}; allowed: integer >= 0")
         fr = [getattr(self, f"frac_{n}") for n in SEDIMENT_NAMES]
         for n, v in zip(SEDIMENT_NAMES, fr, strict=True):
-            _rng(f"frac_{n}", v, 0.0, 1.0)
+            check_range(f"frac_{n}", v, 0.0, 1.0)
         if sum(fr) <= 0:
             raise ValueError(f"frac_mud/sand/gravel/rock = {fr}; allowed: at least one > 0")
-        _rng("patch_scale_m", self.patch_scale_m, 1.0, 500.0)
-        _rng("texture_db", self.texture_db, 0.0, 10.0)
-        _rng("texture_scale_m", self.texture_scale_m, 0.2, 50.0)
-        _rng("ripple_wavelength_m", self.ripple_wavelength_m, 0.05, 20.0)
-        _rng("ripple_slope", self.ripple_slope, 0.0, 0.5)
-        _rng("ripple_direction_deg", self.ripple_direction_deg, -360.0, 360.0)
-        _rng("clutter_cell_m", self.clutter_cell_m, 0.005, 5.0)
-        _rng("sediment_gain_db", self.sediment_gain_db, -40.0, 40.0)
-        _opt("low_grazing_knee_deg", self.low_grazing_knee_deg, 0.5, 60.0)
-        _rng("low_grazing_exponent", self.low_grazing_exponent, 0.5, 12.0)
-        _opt("micro_slope_deg", self.micro_slope_deg, 0.0, 20.0)
-        _rng("micro_slope_cell_m", self.micro_slope_cell_m, 0.01, 5.0)
-        _opt("grazing_clutter_deg", self.grazing_clutter_deg, 0.5, 45.0)
-        _rng("grazing_clutter_exponent", self.grazing_clutter_exponent, 0.5, 12.0)
-        _opt("range_cell_m", self.range_cell_m, 1e-4, 5.0)
-        _opt("volume_sv_db", self.volume_sv_db, -150.0, -20.0)
-        _opt("sea_state", self.sea_state, 0.0, 6.0)
-        _opt("surface_wind_mps", self.surface_wind_mps, 0.5, 30.0)
-        _opt("surface_multipath_loss_db", self.surface_multipath_loss_db, 0.0, 60.0)
-        _rng("upward_sidelobe_db", self.upward_sidelobe_db, -80.0, 0.0)
-        _rng("receiver_gain_db", self.receiver_gain_db, -100.0, 100.0)
-        _opt("tvg_exponent", self.tvg_exponent, 1.0, 6.0)
+        check_range("patch_scale_m", self.patch_scale_m, 1.0, 500.0)
+        check_range("texture_db", self.texture_db, 0.0, 10.0)
+        check_range("texture_scale_m", self.texture_scale_m, 0.2, 50.0)
+        check_range("ripple_wavelength_m", self.ripple_wavelength_m, 0.05, 20.0)
+        check_range("ripple_slope", self.ripple_slope, 0.0, 0.5)
+        check_range("ripple_direction_deg", self.ripple_direction_deg, -360.0, 360.0)
+        check_range("clutter_cell_m", self.clutter_cell_m, 0.005, 5.0)
+        check_range("sediment_gain_db", self.sediment_gain_db, -40.0, 40.0)
+        check_optional_range("low_grazing_knee_deg", self.low_grazing_knee_deg, 0.5, 60.0)
+        check_range("low_grazing_exponent", self.low_grazing_exponent, 0.5, 12.0)
+        check_optional_range("micro_slope_deg", self.micro_slope_deg, 0.0, 20.0)
+        check_range("micro_slope_cell_m", self.micro_slope_cell_m, 0.01, 5.0)
+        check_optional_range("grazing_clutter_deg", self.grazing_clutter_deg, 0.5, 45.0)
+        check_range("grazing_clutter_exponent", self.grazing_clutter_exponent, 0.5, 12.0)
+        check_optional_range("range_cell_m", self.range_cell_m, 1e-4, 5.0)
+        check_optional_range("volume_sv_db", self.volume_sv_db, -150.0, -20.0)
+        check_optional_range("sea_state", self.sea_state, 0.0, 6.0)
+        check_optional_range("surface_wind_mps", self.surface_wind_mps, 0.5, 30.0)
+        check_optional_range("surface_multipath_loss_db", self.surface_multipath_loss_db, 0.0, 60.0)
+        check_range("upward_sidelobe_db", self.upward_sidelobe_db, -80.0, 0.0)
+        check_range("receiver_gain_db", self.receiver_gain_db, -100.0, 100.0)
+        check_optional_range("tvg_exponent", self.tvg_exponent, 1.0, 6.0)
         if self.tvg_reference not in ("transducer", "bottom"):
             raise ValueError(
                 f"tvg_reference = {self.tvg_reference!r}; allowed: 'transducer', 'bottom'"
             )
         if not isinstance(self.bit_depth, int) or not 0 <= self.bit_depth <= 24:
             raise ValueError(f"bit_depth = {self.bit_depth!r}; allowed: integer 0 .. 24")
-        _rng("full_scale_db", self.full_scale_db, 0.0, 300.0)
-        _opt("object_mu_db", self.object_mu_db, -60.0, 0.0)
-        _opt("facet_specular_db", self.facet_specular_db, -40.0, 30.0)
-        _rng("facet_width_deg", self.facet_width_deg, 0.1, 45.0)
-        _opt("corner_gain_db", self.corner_gain_db, -40.0, 40.0)
-        _rng("corner_width_deg", self.corner_width_deg, 0.1, 45.0)
-        _opt("fls_azimuth_sidelobe_db", self.fls_azimuth_sidelobe_db, -80.0, -3.0)
+        check_range("full_scale_db", self.full_scale_db, 0.0, 300.0)
+        check_optional_range("object_mu_db", self.object_mu_db, -60.0, 0.0)
+        check_optional_range("facet_specular_db", self.facet_specular_db, -40.0, 30.0)
+        check_range("facet_width_deg", self.facet_width_deg, 0.1, 45.0)
+        check_optional_range("corner_gain_db", self.corner_gain_db, -40.0, 40.0)
+        check_range("corner_width_deg", self.corner_width_deg, 0.1, 45.0)
+        check_optional_range("fls_azimuth_sidelobe_db", self.fls_azimuth_sidelobe_db, -80.0, -3.0)
 
     @property
     def fractions(self) -> tuple[float, ...]:

@@ -128,6 +128,5 @@ def ping_tvg(tvg, altitude, rz, alpha_db_m, mode):
     "bottom", that curve held at its value at slant range ``altitude`` (m)."""
     if rz.tvg_reference != "bottom" or not (np.isfinite(altitude) and altitude > 0):
         return tvg
-    n = 4.0 if rz.tvg_exponent is None else rz.tvg_exponent
-    at_bottom = float(tvg_gain(np.array([float(altitude)]), alpha_db_m, mode, n)[0])
+    at_bottom = float(tvg_gain(np.array([float(altitude)]), alpha_db_m, mode, rz.tvg_n)[0])
     return bottom_held_tvg(tvg, at_bottom)

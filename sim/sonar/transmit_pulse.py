@@ -57,18 +57,12 @@ the model off and leaves every output bit for bit.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import lfilter
 
-
-def _check(name: str, v, lo: float, hi: float, optional: bool = False) -> None:
-    if optional and v is None:
-        return
-    if not (isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi):
-        raise ValueError(f"{name} = {v!r} is outside the allowed range [{lo}, {hi}]")
+from sim.sonar.validate import check_optional_range, check_range
 
 
 @dataclass(frozen=True)
@@ -91,12 +85,12 @@ class TransmitPulseFields:
     video_filter_m: float | None = None
 
     def __post_init__(self) -> None:
-        _check("transmit_level_db", self.transmit_level_db, 0.0, 400.0, optional=True)
-        _check("transmit_pulse_m", self.transmit_pulse_m, 0.0, 10.0)
-        _check("transmit_pulse_alt_m", self.transmit_pulse_alt_m, 0.0, 10.0, optional=True)
-        _check("transmit_ringdown_db", self.transmit_ringdown_db, -200.0, 0.0)
-        _check("transmit_ringdown_m", self.transmit_ringdown_m, 1e-4, 10.0)
-        _check("video_filter_m", self.video_filter_m, 1e-4, 10.0, optional=True)
+        check_optional_range("transmit_level_db", self.transmit_level_db, 0.0, 400.0)
+        check_range("transmit_pulse_m", self.transmit_pulse_m, 0.0, 10.0)
+        check_optional_range("transmit_pulse_alt_m", self.transmit_pulse_alt_m, 0.0, 10.0)
+        check_range("transmit_ringdown_db", self.transmit_ringdown_db, -200.0, 0.0)
+        check_range("transmit_ringdown_m", self.transmit_ringdown_m, 1e-4, 10.0)
+        check_optional_range("video_filter_m", self.video_filter_m, 1e-4, 10.0)
 
 
 def leak_profile(ranges, level_db: float, pulse_m: float, ringdown_db: float, ringdown_m: float):
